@@ -1,0 +1,59 @@
+# Finds (or builds from a source tree) the project's dependencies and defines
+# mpmflow::dependencies, an interface target carrying them and the MPMFLOW_HAVE_* definitions.
+add_library(mpmflow_dependencies INTERFACE)
+add_library(mpmflow::dependencies ALIAS mpmflow_dependencies)
+# mpi.h (ours or the one parallel HDF5 includes) must not drag in the removed MPI C++ bindings.
+target_compile_definitions(mpmflow_dependencies INTERFACE OMPI_SKIP_MPICXX MPICH_SKIP_MPICXX)
+
+# --- Kokkos: a source tree given at configure time, else an installed one (Kokkos_ROOT) --------
+if(MPMFLOW_KOKKOS_SOURCE_DIR)
+  message(STATUS "mpmflow: building Kokkos from ${MPMFLOW_KOKKOS_SOURCE_DIR}")
+  add_subdirectory(${MPMFLOW_KOKKOS_SOURCE_DIR} ${CMAKE_BINARY_DIR}/kokkos EXCLUDE_FROM_ALL)
+else()
+  find_package(Kokkos REQUIRED)
+endif()
+target_link_libraries(mpmflow_dependencies INTERFACE Kokkos::kokkos)
+
+# --- Kokkos Kernels (BLAS-1 diagnostics); optional so a minimal build needs Kokkos alone -----
+if(MPMFLOW_KOKKOS_KERNELS_SOURCE_DIR)
+  add_subdirectory(${MPMFLOW_KOKKOS_KERNELS_SOURCE_DIR} ${CMAKE_BINARY_DIR}/kokkos-kernels EXCLUDE_FROM_ALL)
+  set(KokkosKernels_FOUND ON)
+else()
+  find_package(KokkosKernels QUIET)
+endif()
+if(KokkosKernels_FOUND)
+  message(STATUS "mpmflow: Kokkos Kernels found: diagnostics use KokkosBlas")
+  target_link_libraries(mpmflow_dependencies INTERFACE Kokkos::kokkoskernels)
+  target_compile_definitions(mpmflow_dependencies INTERFACE MPMFLOW_HAVE_KOKKOS_KERNELS)
+else()
+  message(STATUS "mpmflow: Kokkos Kernels not found: diagnostics use plain Kokkos reductions")
+endif()
+
+find_package(nlohmann_json 3 REQUIRED)
+
+if(MPMFLOW_ENABLE_MPI)
+  find_package(MPI REQUIRED COMPONENTS C)
+  target_link_libraries(mpmflow_dependencies INTERFACE MPI::MPI_C)
+  target_compile_definitions(mpmflow_dependencies INTERFACE MPMFLOW_HAVE_MPI)
+endif()
+
+if(MPMFLOW_ENABLE_HDF5)
+  # Debian's Open MPI build of HDF5 (libhdf5-openmpi-dev): prefer the parallel library.
+  set(HDF5_PREFER_PARALLEL ON)
+  find_package(HDF5 REQUIRED COMPONENTS C)
+  target_include_directories(mpmflow_dependencies INTERFACE ${HDF5_INCLUDE_DIRS})
+  target_link_libraries(mpmflow_dependencies INTERFACE ${HDF5_LIBRARIES})
+  target_compile_definitions(mpmflow_dependencies INTERFACE MPMFLOW_HAVE_HDF5 ${HDF5_DEFINITIONS})
+  if(HDF5_IS_PARALLEL)
+    # The parallel hdf5.h includes mpi.h, whether or not mpmflow itself uses MPI.
+    find_package(MPI REQUIRED COMPONENTS C)
+    target_link_libraries(mpmflow_dependencies INTERFACE MPI::MPI_C)
+  endif()
+endif()
+
+# Version string for the banner: the project version and the git commit it was built from.
+execute_process(COMMAND git describe --always --dirty WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
+                OUTPUT_VARIABLE MPMFLOW_GIT_COMMIT OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
+if(NOT MPMFLOW_GIT_COMMIT)
+  set(MPMFLOW_GIT_COMMIT "unknown commit")
+endif()

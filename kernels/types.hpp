@@ -1,0 +1,32 @@
+#pragma once
+// Basic types shared by every layer: the real type, the execution/memory spaces chosen at
+// configure time, and the View aliases. Grid and particle state are structure-of-arrays Views in
+// LayoutLeft (each field, or each component column, contiguous), so the same access pattern
+// coalesces on GPUs and vectorises on CPUs.
+#include <cstdint>
+
+#include <Kokkos_Core.hpp>
+
+namespace mpmflow {
+
+#ifdef MPMFLOW_SINGLE_PRECISION
+using real_t = float;
+#else
+using real_t = double;
+#endif
+
+using ExecutionSpace = Kokkos::DefaultExecutionSpace;
+using MemorySpace = ExecutionSpace::memory_space;
+using DeviceType = Kokkos::Device<ExecutionSpace, MemorySpace>;
+
+// Node and particle indices. 32 bits address 2^31 particles per rank, far beyond one GPU's memory.
+using index_t = int;
+using particle_id_t = std::int64_t;
+
+using RealView = Kokkos::View<real_t*, Kokkos::LayoutLeft, DeviceType>;
+using IndexView = Kokkos::View<index_t*, Kokkos::LayoutLeft, DeviceType>;
+using ParticleIdView = Kokkos::View<particle_id_t*, Kokkos::LayoutLeft, DeviceType>;
+// Several node fields side by side: (node, component), each component column contiguous.
+using NodeFieldsView = Kokkos::View<real_t**, Kokkos::LayoutLeft, DeviceType>;
+
+}  // namespace mpmflow

@@ -1,0 +1,347 @@
+#include "case_config.hpp"
+
+#include <fstream>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+
+namespace mpmflow {
+namespace {
+
+using nlohmann::json;
+
+// An interval a number must lie in, with the phrase used in error messages.
+struct Bounds {
+  double min = -std::numeric_limits<double>::infinity();
+  double max = std::numeric_limits<double>::infinity();
+  bool min_open = false;
+  std::string phrase = "a number";
+
+  bool contains(double v) const {
+    return (min_open ? v > min : v >= min) && v <= max && v == v;
+  }
+  static Bounds positive() { return {0, std::numeric_limits<double>::infinity(), true, "a number > 0"}; }
+  static Bounds non_negative() { return {0, std::numeric_limits<double>::infinity(), false, "a number >= 0"}; }
+  static Bounds any() { return {}; }
+  static Bounds at_least(double lo, const std::string& phrase) {
+    return {lo, std::numeric_limits<double>::infinity(), false, phrase};
+  }
+  static Bounds between(double lo, double hi, bool lo_open, const std::string& phrase) {
+    return {lo, hi, lo_open, phrase};
+  }
+};
+
+// Reads one JSON object, remembering which keys were used so that leftovers can be rejected.
+class ObjectReader {
+ public:
+  ObjectReader(const json& object, std::string source, std::string path)
+      : object_(object), source_(std::move(source)), path_(std::move(path)) {
+    if (!object_.is_object()) fail(path_.empty() ? "/" : path_, "an object", object_);
+  }
+
+  bool has(const std::string& key) const { return object_.contains(key); }
+
+  double number(const std::string& key, const Bounds& bounds) {
+    const json& v = require(key);
+    if (!v.is_number()) fail(at(key), bounds.phrase, v);
+    const double d = v.get<double>();
+    if (!bounds.contains(d)) fail(at(key), bounds.phrase, v);
+    return d;
+  }
+  double number_or(const std::string& key, double fallback, const Bounds& bounds) {
+    return has(key) ? number(key, bounds) : fallback;
+  }
+
+  long integer(const std::string& key, long min, long max) {
+    const json& v = require(key);
+    const std::string phrase = "an integer in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
+    if (!v.is_number_integer()) fail(at(key), phrase, v);
+    const long i = v.get<long>();
+    if (i < min || i > max) fail(at(key), phrase, v);
+    return i;
+  }
+  long integer_or(const std::string& key, long fallback, long min, long max) {
+    return has(key) ? integer(key, min, max) : fallback;
+  }
+
+  std::string string(const std::string& key) {
+    const json& v = require(key);
+    if (!v.is_string()) fail(at(key), "a string", v);
+    return v.get<std::string>();
+  }
+
+  template <class Enum>
+  Enum choice(const std::string& key, const std::vector<std::pair<std::string, Enum>>& options) {
+    const json& v = require(key);
+    std::string phrase = "one of";
+    for (size_t i = 0; i < options.size(); ++i) phrase += (i ? ", " : " ") + options[i].first;
+    if (v.is_string())
+      for (const auto& option : options)
+        if (option.first == v.get<std::string>()) return option.second;
+    fail(at(key), phrase, v);
+  }
+  template <class Enum>
+  Enum choice_or(const std::string& key, Enum fallback,
+                 const std::vector<std::pair<std::string, Enum>>& options) {
+    return has(key) ? choice(key, options) : fallback;
+  }
+
+  ObjectReader object(const std::string& key) { return ObjectReader(require(key), source_, at(key)); }
+
+  const json& array(const std::string& key) {
+    const json& v = require(key);
+    if (!v.is_array()) fail(at(key), "an array", v);
+    return v;
+  }
+
+  std::string at(const std::string& key) const { return path_ + "/" + key; }
+  const std::string& source() const { return source_; }
+
+  // Every key must have been read: a misspelt key is an error, never silently ignored.
+  void finish() const {
+    for (auto it = object_.begin(); it != object_.end(); ++it)
+      if (!used_.count(it.key()))
+        throw ConfigError(source_ + ": " + at(it.key()) + ": unknown key" + known_keys_hint());
+  }
+
+  [[noreturn]] void fail(const std::string& where, const std::string& expected, const json& got) const {
+    throw ConfigError(source_ + ": " + where + ": expected " + expected + "; got " + got.dump());
+  }
+
+ private:
+  const json& require(const std::string& key) {
+    used_.insert(key);
+    if (!object_.contains(key))
+      throw ConfigError(source_ + ": " + at(key) + ": required key is missing");
+    return object_.at(key);
+  }
+  std::string known_keys_hint() const {
+    if (used_.empty()) return "";
+    std::string hint = " (known here:";
+    for (const auto& k : used_) hint += " " + k;
+    return hint + ")";
+  }
+
+  const json& object_;
+  std::string source_;
+  std::string path_;
+  std::set<std::string> used_;
+};
+
+GasState read_gas_state(ObjectReader& r) {
+  GasState s;
+  s.density = r.number("density", Bounds::positive());
+  s.pressure = r.number("pressure", Bounds::positive());
+  if (r.has("velocity")) {
+    const json& v = r.array("velocity");
+    if (v.size() != 2 || !v[0].is_number() || !v[1].is_number())
+      r.fail(r.at("velocity"), "an array of two numbers [vx, vy]", v);
+    s.velocity_x = v[0].get<double>();
+    s.velocity_y = v[1].get<double>();
+  }  // no velocity: at rest
+  return s;
+}
+
+// Reads a [lo, hi] pair of numbers with lo < hi.
+std::pair<double, double> read_range(ObjectReader& r, const std::string& key) {
+  const json& v = r.array(key);
+  if (v.size() != 2 || !v[0].is_number() || !v[1].is_number() || !(v[0].get<double>() < v[1].get<double>()))
+    r.fail(r.at(key), "an array [lo, hi] of two numbers with lo < hi", v);
+  return {v[0].get<double>(), v[1].get<double>()};
+}
+
+const std::vector<std::pair<std::string, BoundaryType>> kBoundaryTypes = {
+    {"slip_wall", BoundaryType::slip_wall}};
+
+BoundaryType read_boundary(ObjectReader& boundaries, const std::string& side) {
+  if (!boundaries.has(side)) return BoundaryType::slip_wall;
+  ObjectReader r = boundaries.object(side);
+  const BoundaryType type = r.choice("type", kBoundaryTypes);
+  r.finish();
+  return type;
+}
+
+CaseConfig parse_document(const json& doc, const std::string& source) {
+  CaseConfig cfg;
+  cfg.source = source;
+  ObjectReader root(doc, source, "");
+
+  cfg.name = root.string("name");
+  if (cfg.name.empty() || cfg.name.find_first_not_of(
+                              "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
+                              std::string::npos)
+    root.fail("/name", "a non-empty name of letters, digits, '_' and '-' (it names output files)",
+              doc["name"]);
+
+  {
+    ObjectReader r = root.object("domain");
+    const auto xr = read_range(r, "x");
+    const auto yr = read_range(r, "y");
+    cfg.domain.x_min = xr.first;
+    cfg.domain.x_max = xr.second;
+    cfg.domain.y_min = yr.first;
+    cfg.domain.y_max = yr.second;
+    cfg.domain.cells_x = static_cast<int>(r.integer("cells_x", 1, 1 << 20));
+    cfg.domain.cells_y = static_cast<int>(r.integer("cells_y", 1, 1 << 20));
+    r.finish();
+  }
+
+  if (root.has("physics")) {
+    ObjectReader r = root.object("physics");
+    cfg.physics.gamma = r.number_or("gamma", 1.4, Bounds::at_least(1.0 + 1e-12, "a number > 1"));
+    if (r.has("artificial_viscosity")) {
+      ObjectReader av = r.object("artificial_viscosity");
+      cfg.physics.viscosity_quadratic = av.number_or("c0", 1.0, Bounds::non_negative());
+      cfg.physics.viscosity_linear = av.number_or("c1", 1.0, Bounds::non_negative());
+      av.finish();
+    }
+    r.finish();
+  }
+
+  {
+    ObjectReader r = root.object("time");
+    cfg.time.end_time = r.number("end", Bounds::positive());
+    cfg.time.cfl = r.number_or("cfl", 0.5, Bounds::between(0, 1, true, "a number in (0, 1]"));
+    cfg.time.max_steps = r.integer_or("max_steps", 0, 0, std::numeric_limits<long>::max());
+    r.finish();
+  }
+
+  if (root.has("boundaries")) {
+    ObjectReader r = root.object("boundaries");
+    cfg.boundaries.left = read_boundary(r, "left");
+    cfg.boundaries.right = read_boundary(r, "right");
+    cfg.boundaries.bottom = read_boundary(r, "bottom");
+    cfg.boundaries.top = read_boundary(r, "top");
+    r.finish();
+  }
+
+  {
+    ObjectReader r = root.object("particles");
+    cfg.particles.placement =
+        r.choice_or("placement", ParticlePlacement::regular, {{"regular", ParticlePlacement::regular}});
+    const json& per_cell = r.array("per_cell");
+    if (per_cell.size() != 2 || !per_cell[0].is_number_integer() || !per_cell[1].is_number_integer() ||
+        per_cell[0].get<long>() < 1 || per_cell[1].get<long>() < 1 || per_cell[0].get<long>() > 64 ||
+        per_cell[1].get<long>() > 64)
+      r.fail(r.at("per_cell"), "an array [nx, ny] of two integers in [1, 64]", per_cell);
+    cfg.particles.per_cell_x = per_cell[0].get<int>();
+    cfg.particles.per_cell_y = per_cell[1].get<int>();
+    r.finish();
+  }
+
+  {
+    ObjectReader r = root.object("initial_state");
+    ObjectReader background = r.object("background");
+    cfg.initial_state.background = read_gas_state(background);
+    background.finish();
+    if (r.has("regions")) {
+      const json& regions = r.array("regions");
+      for (size_t i = 0; i < regions.size(); ++i) {
+        ObjectReader region(regions[i], source, r.at("regions") + "/" + std::to_string(i));
+        Region reg;
+        const auto xr = read_range(region, "x");
+        const auto yr = read_range(region, "y");
+        reg.x_min = xr.first;
+        reg.x_max = xr.second;
+        reg.y_min = yr.first;
+        reg.y_max = yr.second;
+        reg.state = read_gas_state(region);
+        region.finish();
+        cfg.initial_state.regions.push_back(reg);
+      }
+    }
+    r.finish();
+  }
+
+  cfg.output.directory = "output/" + cfg.name;
+  if (root.has("output")) {
+    ObjectReader r = root.object("output");
+    if (r.has("directory")) {
+      cfg.output.directory = r.string("directory");
+      if (cfg.output.directory.empty()) r.fail("/output/directory", "a non-empty path", doc["output"]["directory"]);
+    }
+    cfg.output.snapshots = static_cast<int>(r.integer_or("snapshots", 10, 0, 100000));
+    r.finish();
+  }
+
+  if (root.has("numerics")) {
+    ObjectReader r = root.object("numerics");
+    cfg.numerics.reorder_interval = static_cast<int>(r.integer_or("reorder_interval", 0, 0, 1 << 30));
+    cfg.numerics.p2g = r.choice_or("p2g", P2GStrategy::automatic,
+                                   {{"automatic", P2GStrategy::automatic},
+                                    {"duplicated", P2GStrategy::duplicated},
+                                    {"atomic", P2GStrategy::atomic}});
+    cfg.numerics.shape_function = r.choice_or("shape_function", ShapeFunction::gimp,
+                                              {{"linear", ShapeFunction::linear}, {"gimp", ShapeFunction::gimp}});
+    r.finish();
+  }
+
+  root.finish();
+  return cfg;
+}
+
+void apply_override(json& doc, const std::string& source, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw ConfigError(source + ": --set " + assignment + ": expected PATH=VALUE, e.g. domain/cells_x=400");
+  std::string path = assignment.substr(0, eq);
+  if (path.front() != '/') path = "/" + path;
+  const std::string text = assignment.substr(eq + 1);
+  json value = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (value.is_discarded()) value = text;  // not JSON: take it as a string
+  try {
+    doc[json::json_pointer(path)] = value;
+  } catch (const json::exception& e) {
+    throw ConfigError(source + ": --set " + assignment + ": cannot set " + path + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+CaseConfig parse_case(const std::string& json_text, const std::string& source) {
+  json doc = json::parse(json_text, nullptr, false);
+  if (doc.is_discarded()) throw ConfigError(source + ": not valid JSON");
+  return parse_document(doc, source);
+}
+
+CaseConfig load_case_file(const std::string& path, const std::vector<std::string>& overrides) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open the case file");
+  json doc;
+  try {
+    doc = json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw ConfigError(path + ": not valid JSON: " + e.what());
+  }
+  for (const auto& assignment : overrides) apply_override(doc, path, assignment);
+  return parse_document(doc, path);
+}
+
+const char* to_string(BoundaryType type) {
+  switch (type) {
+    case BoundaryType::slip_wall: return "slip_wall";
+  }
+  return "?";
+}
+
+const char* to_string(P2GStrategy strategy) {
+  switch (strategy) {
+    case P2GStrategy::automatic: return "automatic";
+    case P2GStrategy::duplicated: return "duplicated";
+    case P2GStrategy::atomic: return "atomic";
+  }
+  return "?";
+}
+
+const char* to_string(ShapeFunction shape) {
+  switch (shape) {
+    case ShapeFunction::linear: return "linear";
+    case ShapeFunction::gimp: return "gimp";
+  }
+  return "?";
+}
+
+}  // namespace mpmflow

@@ -1,0 +1,55 @@
+#pragma once
+// Inviscid perfect gas with artificial viscosity: the pointwise physics of the particle update
+// (paper eqs. 3-5 and Algorithm 1, step 10), as small pure functions usable on host and device.
+#include <cmath>
+
+#include "kernels/types.hpp"
+
+namespace mpmflow {
+
+// p = (gamma - 1) rho e
+KOKKOS_INLINE_FUNCTION real_t perfect_gas_pressure(real_t gamma, real_t density, real_t specific_energy) {
+  return (gamma - 1) * density * specific_energy;
+}
+
+KOKKOS_INLINE_FUNCTION real_t perfect_gas_specific_energy(real_t gamma, real_t density, real_t pressure) {
+  return pressure / ((gamma - 1) * density);
+}
+
+// c = sqrt(gamma p / rho); a non-positive pressure gives c = 0 rather than NaN, so the time step
+// stays defined long enough for the caller to report the bad particle.
+KOKKOS_INLINE_FUNCTION real_t sound_speed(real_t gamma, real_t pressure, real_t density) {
+  const real_t c2 = gamma * pressure / density;
+  return c2 > 0 ? std::sqrt(c2) : real_t(0);
+}
+
+// von Neumann-Richtmyer (c0, quadratic) + Landshoff (c1, linear) artificial viscosity in its
+// dimensionally consistent form q = rho h (c0 h (div v)^2 - c1 c div v), active in compression only.
+// (The paper's eq. 4 squares rho as well, which does not have units of pressure.)
+KOKKOS_INLINE_FUNCTION real_t artificial_viscosity(real_t density, real_t sound_speed_value,
+                                                   real_t cell_size, real_t velocity_divergence,
+                                                   real_t c0, real_t c1) {
+  if (velocity_divergence >= 0) return 0;
+  return density * cell_size *
+         (c0 * cell_size * velocity_divergence * velocity_divergence -
+          c1 * sound_speed_value * velocity_divergence);
+}
+
+// Continuity along a particle path: rho' = rho / (1 + dt div v).
+KOKKOS_INLINE_FUNCTION real_t advanced_density(real_t density, real_t dt, real_t velocity_divergence) {
+  return density / (1 + dt * velocity_divergence);
+}
+
+// Energy along a particle path: e' = e - dt (p + q) / rho div v.
+KOKKOS_INLINE_FUNCTION real_t advanced_specific_energy(real_t specific_energy, real_t dt, real_t pressure,
+                                                       real_t viscosity, real_t density,
+                                                       real_t velocity_divergence) {
+  return specific_energy - dt * (pressure + viscosity) / density * velocity_divergence;
+}
+
+// Fastest signal at a particle, |v| + c, which bounds the explicit time step.
+KOKKOS_INLINE_FUNCTION real_t signal_speed(real_t vx, real_t vy, real_t sound_speed_value) {
+  return std::sqrt(vx * vx + vy * vy) + sound_speed_value;
+}
+
+}  // namespace mpmflow

@@ -1,0 +1,57 @@
+#pragma once
+// Snapshot output: one HDF5 file per output step (particle fields and grid node fields) and XDMF
+// time series that ParaView/VisIt open directly; a CSV of the conservation diagnostics. Every
+// file is written under a temporary name and renamed when complete, so a reader (or a crash)
+// never sees half a file.
+#include <string>
+#include <vector>
+
+#include "diagnostics.hpp"
+#include "solver.hpp"
+
+namespace mpmflow {
+
+// Writes `text` to `path` through a temporary file in the same directory and a rename.
+void write_file_atomically(const std::string& path, const std::string& text);
+
+// The conservation diagnostics of every output so far, as CSV (rewritten whole at each output).
+class DiagnosticsLog {
+ public:
+  explicit DiagnosticsLog(std::string path) : path_(std::move(path)) {}
+  void append(long step, double time, const ConservationTotals& totals);
+
+ private:
+  std::string path_;
+  std::string text_;
+};
+
+#ifdef MPMFLOW_HAVE_HDF5
+class SnapshotWriter {
+ public:
+  // Creates `directory` if needed. Files are named <case_name>_<index>.h5.
+  SnapshotWriter(std::string directory, std::string case_name);
+
+  // Writes snapshot `index` and refreshes the XDMF time series; returns the HDF5 path.
+  std::string write(int index, long step, double time, const Solver& solver, const ConservationTotals& totals);
+
+  std::string particles_xdmf_path() const;
+  std::string grid_xdmf_path() const;
+
+ private:
+  struct Record {
+    std::string file;  // relative to the directory
+    double time;
+    long num_particles;
+  };
+  void write_xdmf() const;
+
+  std::string directory_;
+  std::string case_name_;
+  std::vector<Record> records_;
+  // Owned grid nodes written, and their geometry, for the XDMF topology.
+  long grid_nodes_x_ = 0, grid_nodes_y_ = 0;
+  double grid_origin_x_ = 0, grid_origin_y_ = 0, grid_spacing_x_ = 0, grid_spacing_y_ = 0;
+};
+#endif
+
+}  // namespace mpmflow

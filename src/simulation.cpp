@@ -1,0 +1,184 @@
+#include "simulation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <memory>
+#include <ostream>
+#include <sstream>
+
+#include "output.hpp"
+#include "particles.hpp"
+#include "solver.hpp"
+
+namespace mpmflow {
+namespace {
+
+std::string format_seconds(double s) {
+  std::ostringstream out;
+  if (s < 60) out << std::fixed << std::setprecision(1) << s << "s";
+  else if (s < 3600) out << int(s / 60) << "m" << std::setw(2) << std::setfill('0') << int(s) % 60 << "s";
+  else out << int(s / 3600) << "h" << std::setw(2) << std::setfill('0') << int(s / 60) % 60 << "m";
+  return out.str();
+}
+
+void print_totals(std::ostream& log, const char* label, const ConservationTotals& t, const ConservationTotals& t0) {
+  log << std::setprecision(10) << "  " << label << ": mass " << t.mass << " (rel. change "
+      << std::setprecision(3) << (t.mass - t0.mass) / t0.mass << ")" << std::setprecision(10) << ", momentum ("
+      << t.momentum_x << ", " << t.momentum_y << "), kinetic " << t.kinetic_energy << ", internal "
+      << t.internal_energy << ", total energy drift " << std::setprecision(3)
+      << (t.total_energy() - t0.total_energy()) / t0.total_energy() << "\n";
+}
+
+void print_timer_table(std::ostream& log, PhaseTimers& timers, long steps) {
+  const double total = timers.total_seconds();
+  log << "\nTime per phase\n"
+      << "  " << std::left << std::setw(28) << "phase" << std::right << std::setw(11) << "total [s]" << std::setw(8)
+      << "%" << std::setw(10) << "calls" << std::setw(14) << "per step [ms]" << "\n";
+  for (const auto& name : timers.names()) {
+    const auto& e = timers.entry(name);
+    log << "  " << std::left << std::setw(28) << name << std::right << std::fixed << std::setprecision(3)
+        << std::setw(11) << e.seconds << std::setprecision(1) << std::setw(8) << 100 * e.seconds / total
+        << std::setw(10) << e.calls << std::setprecision(3) << std::setw(14)
+        << (steps > 0 ? 1000 * e.seconds / steps : 0.0) << "\n";
+  }
+  log << std::defaultfloat;
+}
+
+}  // namespace
+
+std::string build_description() {
+  std::ostringstream out;
+  const int kv = KOKKOS_VERSION;
+  out << "mpmflow " << MPMFLOW_VERSION << " (" << MPMFLOW_GIT_COMMIT << "), "
+      << (sizeof(real_t) == 8 ? "double" : "single") << " precision\n"
+      << "Kokkos " << kv / 10000 << "." << (kv / 100) % 100 << "." << kv % 100 << ", execution space "
+      << ExecutionSpace::name() << ", concurrency " << ExecutionSpace().concurrency() << "\n";
+#ifdef MPMFLOW_HAVE_MPI
+  out << "MPI: on";
+#else
+  out << "MPI: off";
+#endif
+#ifdef MPMFLOW_HAVE_HDF5
+  out << ", HDF5: on";
+#else
+  out << ", HDF5: off";
+#endif
+  return out.str();
+}
+
+void check_case_supported(const CaseConfig& config) {
+#ifndef MPMFLOW_HAVE_HDF5
+  if (config.output.snapshots > 0)
+    throw ConfigError(config.source + ": /output/snapshots: this mpmflow was built without HDF5, so it cannot "
+                      "write output; expected 0 (run with --set output/snapshots=0), or rebuild with "
+                      "-DMPMFLOW_ENABLE_HDF5=ON");
+#else
+  (void)config;
+#endif
+}
+
+RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, std::ostream& log) {
+  check_case_supported(config);
+  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+  Solver solver(config, slab, create_initial_particles(config, slab));
+  DiagnosticsCalculator diagnostics(solver.particles().count);
+  const index_t n = solver.particles().count;
+  const double end_time = config.time.end_time;
+
+  if (options.print_banner) {
+    log << build_description() << "\n"
+        << "case " << config.name << " (" << config.source << "): " << config.domain.cells_x << " x "
+        << config.domain.cells_y << " cells, " << n << " particles, t_end " << end_time << ", cfl "
+        << config.time.cfl << "\n"
+        << "numerics: shape function " << to_string(config.numerics.shape_function) << ", P2G ScatterView "
+        << to_string(solver.p2g_strategy()) << ", reorder every " << config.numerics.reorder_interval
+        << " steps (0: never)\n";
+  }
+
+  RunSummary summary;
+  summary.num_particles = n;
+  const int snapshots = config.output.snapshots;
+#ifdef MPMFLOW_HAVE_HDF5
+  std::unique_ptr<SnapshotWriter> writer;
+  std::unique_ptr<DiagnosticsLog> diagnostics_log;
+  if (snapshots > 0) {
+    writer = std::make_unique<SnapshotWriter>(config.output.directory, config.name);
+    diagnostics_log = std::make_unique<DiagnosticsLog>(config.output.directory + "/diagnostics.csv");
+    summary.output_directory = config.output.directory;
+  }
+#endif
+  int next_snapshot = 0;
+  auto snapshot_time = [&](int k) { return end_time * k / snapshots; };
+  auto write_output = [&](double t, const ConservationTotals& totals) {
+#ifdef MPMFLOW_HAVE_HDF5
+    if (!writer) return;
+    auto scope = solver.timers().scope("output");
+    const std::string path = writer->write(next_snapshot, solver.step_count(), t, solver, totals);
+    diagnostics_log->append(solver.step_count(), t, totals);
+    log << "  output " << next_snapshot << " at t = " << t << ": " << path << "\n";
+#else
+    (void)t;
+    (void)totals;
+#endif
+  };
+
+  summary.initial_totals = diagnostics.compute(solver.particles());
+  print_totals(log, "t = 0", summary.initial_totals, summary.initial_totals);
+  if (snapshots > 0) {
+    write_output(0.0, summary.initial_totals);
+    next_snapshot = 1;
+  }
+
+  double t = 0;
+  Kokkos::Timer wall;
+  double last_report = 0;
+  const long max_steps = config.time.max_steps;
+  bool last_state_written = snapshots > 0;
+  while (t < end_time && (max_steps == 0 || solver.step_count() < max_steps)) {
+    const double target = snapshots > 0 ? snapshot_time(next_snapshot) : end_time;
+    const double t_before = t;
+    t = solver.step_towards(t, target);
+    last_state_written = false;
+
+    if (snapshots > 0 && t == target) {
+      const ConservationTotals totals = diagnostics.compute(solver.particles());
+      print_totals(log, ("t = " + std::to_string(t)).c_str(), totals, summary.initial_totals);
+      write_output(t, totals);
+      ++next_snapshot;
+      last_state_written = true;
+    }
+    const double elapsed = wall.seconds();
+    if (elapsed - last_report >= options.progress_interval_seconds) {
+      last_report = elapsed;
+      const double rate = double(n) * solver.step_count() / elapsed;
+      const double fraction = t / end_time;
+      log << "step " << solver.step_count() << "  t " << std::setprecision(6) << t << "  dt " << std::setprecision(3)
+          << t - t_before << "  " << std::fixed << std::setprecision(1) << 100 * fraction << "%  " << std::scientific
+          << std::setprecision(2) << rate << " particle-steps/s  ETA "
+          << format_seconds(fraction > 0 ? elapsed * (1 - fraction) / fraction : 0) << std::defaultfloat << "\n";
+    }
+  }
+
+  summary.final_totals = diagnostics.compute(solver.particles());
+  if (!last_state_written) write_output(t, summary.final_totals);
+  summary.steps = solver.step_count();
+  summary.end_time = t;
+  summary.wall_seconds = wall.seconds();
+  summary.particle_steps_per_second = summary.wall_seconds > 0 ? double(n) * summary.steps / summary.wall_seconds : 0;
+
+  log << "done: " << summary.steps << " steps to t = " << t << " in " << format_seconds(summary.wall_seconds)
+      << ", " << std::scientific << std::setprecision(3) << summary.particle_steps_per_second << std::defaultfloat
+      << " particle-steps/s\n";
+  print_totals(log, "final", summary.final_totals, summary.initial_totals);
+  print_timer_table(log, solver.timers(), summary.steps);
+  if (!summary.output_directory.empty()) {
+#ifdef MPMFLOW_HAVE_HDF5
+    log << "output written to " << summary.output_directory << " (open " << writer->particles_xdmf_path()
+        << " or " << writer->grid_xdmf_path() << " in ParaView)\n";
+#endif
+  }
+  return summary;
+}
+
+}  // namespace mpmflow

@@ -1,0 +1,36 @@
+#pragma once
+// The time loop around the solver: output schedule, progress report, diagnostics, timer table.
+#include <iosfwd>
+#include <string>
+
+#include "case_config.hpp"
+#include "diagnostics.hpp"
+
+namespace mpmflow {
+
+struct RunOptions {
+  double progress_interval_seconds = 2.0;  // wall time between progress lines
+  bool print_banner = true;
+};
+
+struct RunSummary {
+  long steps = 0;
+  double end_time = 0;
+  double wall_seconds = 0;
+  double particle_steps_per_second = 0;
+  long num_particles = 0;
+  ConservationTotals initial_totals;
+  ConservationTotals final_totals;
+  std::string output_directory;  // empty when nothing was written
+};
+
+// Throws ConfigError when the case asks for something this build cannot do (output without HDF5).
+void check_case_supported(const CaseConfig& config);
+
+// Runs the case to its end time (or max_steps), writing outputs as configured. Reports go to `log`.
+RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, std::ostream& log);
+
+// Banner lines: version, Kokkos version and execution space, threads, ranks.
+std::string build_description();
+
+}  // namespace mpmflow

@@ -1,0 +1,283 @@
+#include "solver.hpp"
+
+#include "boundary_conditions.hpp"
+#include "gas_physics.hpp"
+#include "kernels/blas1.hpp"
+#include "kernels/particle_sort.hpp"
+#include "kernels/reductions.hpp"
+#include "kernels/transfer_kernels.hpp"
+
+namespace mpmflow {
+namespace {
+
+// ---- On-the-fly functors of Algorithm 1 (the paper's I, zeta, eta and theta) ------------------
+
+// P2G(I, M), P2G(I, M Vx), P2G(I, M Vy)
+struct MassAndMomentum {
+  static constexpr int num_components = 3;
+  RealView mass, velocity_x, velocity_y;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[3]) const {
+    value[0] = mass(p);
+    value[1] = mass(p) * velocity_x(p);
+    value[2] = mass(p) * velocity_y(p);
+  }
+};
+
+// P2G(I, M V): the momentum remap of step 8.
+struct Momentum {
+  static constexpr int num_components = 2;
+  RealView mass, velocity_x, velocity_y;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[2]) const {
+    value[0] = mass(p) * velocity_x(p);
+    value[1] = mass(p) * velocity_y(p);
+  }
+};
+
+// P2GD(zeta / eta, P, Q, M, rho): the internal force f_i = sum_p (P+Q) (M/rho) grad phi_i (eq. 13).
+struct InternalForce {
+  static constexpr int num_components = 2;
+  RealView pressure, viscosity, mass, density;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&vector)[2][2]) const {
+    const real_t stress_times_volume = (pressure(p) + viscosity(p)) * mass(p) / density(p);
+    vector[0][0] = stress_times_volume;  // zeta: x force component pairs with d/dx
+    vector[0][1] = 0;
+    vector[1][0] = 0;                    // eta: y force component pairs with d/dy
+    vector[1][1] = stress_times_volume;
+  }
+};
+
+// theta(a, m) = a / m on a node, for the listed columns of one View.
+template <int N>
+struct PerUnitNodeMass {
+  static constexpr int num_components = N;
+  NodeFieldsView numerator;
+  int first_column;
+  NodeFieldsView state;  // holds the node mass
+  real_t mass_threshold;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t node, real_t (&value)[N]) const {
+    const real_t m = state(node, GridFields::mass);
+    const real_t inv_m = m > mass_threshold ? real_t(1) / m : real_t(0);
+    for (int c = 0; c < N; ++c) value[c] = numerator(node, first_column + c) * inv_m;
+  }
+};
+
+// Sink of step 6-7: keep V-bar for the move, update V with the interpolated acceleration.
+struct StoreGridVelocityAndAccelerate {
+  RealView grid_velocity_x, grid_velocity_y, velocity_x, velocity_y;
+  real_t dt;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4]) const {
+    grid_velocity_x(p) = value[0];
+    grid_velocity_y(p) = value[1];
+    velocity_x(p) += dt * value[2];
+    velocity_y(p) += dt * value[3];
+  }
+};
+
+// Sink of step 10: density, energy, pressure and artificial viscosity from div V; the particle
+// domain's stretches (diagonal of the deformation gradient, used by GIMP) from dVx/dx and dVy/dy.
+struct UpdateThermodynamics {
+  RealView density, specific_energy, pressure, viscosity, stretch_x, stretch_y;
+  real_t dt, gamma, cell_size, c0, c1;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&gradient)[2][2]) const {
+    const real_t div_v = gradient[0][0] + gradient[1][1];
+    stretch_x(p) *= 1 + dt * gradient[0][0];
+    stretch_y(p) *= 1 + dt * gradient[1][1];
+    const real_t rho = density(p);
+    const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure(p), rho), cell_size, div_v, c0, c1);
+    const real_t e_new = advanced_specific_energy(specific_energy(p), dt, pressure(p), q, rho, div_v);
+    const real_t rho_new = advanced_density(rho, dt, div_v);
+    specific_energy(p) = e_new;
+    density(p) = rho_new;
+    pressure(p) = perfect_gas_pressure(gamma, rho_new, e_new);
+    viscosity(p) = q;
+  }
+};
+
+}  // namespace
+
+class Solver::Stepper {
+ public:
+  virtual ~Stepper() = default;
+  virtual void advance(Solver& solver, real_t dt) = 0;
+  virtual P2GStrategy strategy() const = 0;
+};
+
+template <class Duplication, class Shape>
+class Solver::ScatterStepper final : public Solver::Stepper {
+ public:
+  ScatterStepper(const GridFields& fields, const Shape& shape)
+      : state_scatter_(fields.state), remap_scatter_(fields.momentum_remap), shape_(shape) {}
+
+  P2GStrategy strategy() const override {
+    return std::is_same<Duplication, Kokkos::Experimental::ScatterDuplicated>::value ? P2GStrategy::duplicated
+                                                                                     : P2GStrategy::atomic;
+  }
+
+  void advance(Solver& solver, real_t dt) override;
+
+ private:
+  // Kept alive across steps: creating a duplicated ScatterView allocates a copy per thread.
+  NodeScatterView<Duplication> state_scatter_;
+  NodeScatterView<Duplication> remap_scatter_;
+  Shape shape_;
+};
+
+template <class Duplication, class Shape>
+void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t dt) {
+  const CaseConfig& cfg = solver.config_;
+  const GridSlab& slab = solver.slab_;
+  const GridGeometry grid = slab.geometry;
+  const Shape shape = shape_;
+  ParticleState& pt = solver.particles_;
+  const GridFields& fields = solver.grid_fields_;
+  PhaseTimers& timers = solver.timers_;
+  const ParticleLocations where = pt.locations();
+  const index_t n = pt.count;
+  const NodeFieldsView state = fields.state;
+  const NodeFieldsView remap = fields.momentum_remap;
+
+  {  // 2. grid reset
+    auto t = timers.scope("grid_reset");
+    Kokkos::deep_copy(state, real_t(0));
+    Kokkos::deep_copy(remap, real_t(0));
+  }
+  {  // 3. mass, momentum and force P2G
+    auto t = timers.scope("p2g_mass_momentum_force");
+    p2g_begin(state_scatter_, state);
+    p2g("p2g_mass_momentum", shape, where, n, state_scatter_, GridFields::mass,
+        MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y});
+    p2gd("p2gd_internal_force", shape, where, n, state_scatter_, GridFields::force_x,
+         InternalForce{pt.pressure, pt.artificial_viscosity, pt.mass, pt.density});
+    p2g_end(state_scatter_, state);
+  }
+  {  // 4. boundary conditions on momentum and force
+    auto t = timers.scope("boundary_conditions");
+    apply_slip_walls(slab, cfg.boundaries, state, GridFields::momentum_x, GridFields::momentum_y);
+    apply_slip_walls(slab, cfg.boundaries, state, GridFields::force_x, GridFields::force_y);
+  }
+  {  // 5. momentum equation on the grid: (mv)' = mv + dt f
+    auto t = timers.scope("grid_momentum_update");
+    Kokkos::parallel_for(
+        "grid_momentum_update", Kokkos::RangePolicy<ExecutionSpace>(0, grid.num_nodes()),
+        KOKKOS_LAMBDA(const index_t i) {
+          state(i, GridFields::momentum_x) += dt * state(i, GridFields::force_x);
+          state(i, GridFields::momentum_y) += dt * state(i, GridFields::force_y);
+        });
+  }
+  const real_t mass_threshold = solver.node_mass_threshold_;
+  {  // 6-7. G2P of velocity (V-bar) and acceleration; V' = V + dt A
+    auto t = timers.scope("g2p_velocity_acceleration");
+    g2p("g2p_velocity_acceleration", shape, where, n,
+        PerUnitNodeMass<4>{state, GridFields::momentum_x, state, mass_threshold},
+        StoreGridVelocityAndAccelerate{pt.grid_velocity_x, pt.grid_velocity_y, pt.velocity_x, pt.velocity_y, dt});
+  }
+  {  // 8. momentum P2G with the updated particle velocity
+    auto t = timers.scope("p2g_momentum_remap");
+    p2g_begin(remap_scatter_, remap);
+    p2g("p2g_momentum_remap", shape, where, n, remap_scatter_, GridFields::remap_momentum_x,
+        Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
+    p2g_end(remap_scatter_, remap);
+  }
+  {  // 9. boundary conditions on the remapped momentum
+    auto t = timers.scope("boundary_conditions");
+    apply_slip_walls(slab, cfg.boundaries, remap, GridFields::remap_momentum_x, GridFields::remap_momentum_y);
+  }
+  {  // 10. G2PD velocity gradient; density, energy, pressure update
+    auto t = timers.scope("g2pd_particle_update");
+    g2pd("g2pd_particle_update", shape, where, n,
+         PerUnitNodeMass<2>{remap, GridFields::remap_momentum_x, state, mass_threshold},
+         UpdateThermodynamics{pt.density, pt.specific_energy, pt.pressure, pt.artificial_viscosity,
+                              pt.domain_stretch_x, pt.domain_stretch_y, dt,
+                              cfg.physics.gamma, slab.cell_size(), cfg.physics.viscosity_quadratic,
+                              cfg.physics.viscosity_linear});
+  }
+  {  // 11. the postponed particle move with V-bar
+    auto t = timers.scope("particle_move");
+    const auto x = pt.position_x, y = pt.position_y, vbx = pt.grid_velocity_x, vby = pt.grid_velocity_y;
+    Kokkos::parallel_for(
+        "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, n), KOKKOS_LAMBDA(const index_t p) {
+          x(p) += dt * vbx(p);
+          y(p) += dt * vby(p);
+        });
+  }
+  {  // cell map update (step x)
+    auto t = timers.scope("cell_map");
+    update_cell_map(grid, pt);
+  }
+  const int interval = cfg.numerics.reorder_interval;
+  if (interval > 0 && (solver.step_count_ + 1) % interval == 0) {  // 12. optional reordering
+    auto t = timers.scope("reorder");
+    CellSorter sorter(pt.cell, n, grid.num_cells());
+    sorter.apply(pt.position_x, pt.position_y, pt.velocity_x, pt.velocity_y, pt.grid_velocity_x,
+                 pt.grid_velocity_y, pt.mass, pt.density, pt.specific_energy, pt.pressure,
+                 pt.artificial_viscosity, pt.domain_stretch_x, pt.domain_stretch_y, pt.id, pt.cell);
+  }
+}
+
+namespace {
+
+bool use_duplicated(P2GStrategy strategy) {
+  if (strategy == P2GStrategy::duplicated) return true;
+  if (strategy == P2GStrategy::atomic) return false;
+  // Kokkos' own rule: duplicated copies where the grid lives in host memory (few threads, cheap
+  // copies), atomics on GPUs (thousands of threads, copies unaffordable).
+  return std::is_same<MemorySpace, Kokkos::HostSpace>::value;
+}
+
+}  // namespace
+
+template <class Duplication>
+std::unique_ptr<Solver::Stepper> Solver::make_stepper() const {
+  const GridGeometry& geo = slab_.geometry;
+  if (config_.numerics.shape_function == ShapeFunction::gimp) {
+    // Each particle's initial domain is its share of the cell, ppc_x x ppc_y per cell.
+    const GimpShape shape{geo, geo.spacing_x / (2 * config_.particles.per_cell_x),
+                          geo.spacing_y / (2 * config_.particles.per_cell_y), particles_.domain_stretch_x,
+                          particles_.domain_stretch_y};
+    return std::make_unique<ScatterStepper<Duplication, GimpShape>>(grid_fields_, shape);
+  }
+  return std::make_unique<ScatterStepper<Duplication, LinearShape>>(grid_fields_, LinearShape{geo});
+}
+
+Solver::Solver(const CaseConfig& config, const GridSlab& slab, ParticleState particles)
+    : config_(config), slab_(slab), particles_(std::move(particles)), grid_fields_(slab.geometry) {
+  if (use_duplicated(config.numerics.p2g))
+    stepper_ = make_stepper<Kokkos::Experimental::ScatterDuplicated>();
+  else
+    stepper_ = make_stepper<Kokkos::Experimental::ScatterNonDuplicated>();
+  // A millionth of the mean particle mass: far below any node a particle really touches.
+  const real_t total_mass = particles_.count > 0 ? blas_sum(particles_.mass) : real_t(0);
+  node_mass_threshold_ = particles_.count > 0 ? real_t(1e-6) * total_mass / particles_.count : real_t(0);
+}
+
+Solver::~Solver() = default;
+
+P2GStrategy Solver::p2g_strategy() const { return stepper_->strategy(); }
+
+real_t Solver::stable_time_step() {
+  auto t = timers_.scope("time_step");
+  const auto vx = particles_.velocity_x, vy = particles_.velocity_y, p = particles_.pressure,
+             rho = particles_.density;
+  const real_t gamma = config_.physics.gamma;
+  const real_t max_speed = max_over_particles(
+      "max_signal_speed", particles_.count,
+      KOKKOS_LAMBDA(const index_t k) { return signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k))); });
+  const real_t h = slab_.cell_size();
+  // A gas at rest with zero pressure has no signal speed; any step is then stable.
+  return max_speed > 0 ? config_.time.cfl * h / max_speed : config_.time.end_time;
+}
+
+void Solver::advance(real_t dt) {
+  stepper_->advance(*this, dt);
+  ++step_count_;
+}
+
+double Solver::step_towards(double t, double target) {
+  const double dt = stable_time_step();
+  // Round-off in t must not leave a sliver of a step before the target.
+  const bool reaches_target = t + dt >= target - 1e-12 * target;
+  advance(static_cast<real_t>(reaches_target ? target - t : dt));
+  return reaches_target ? target : t + dt;
+}
+
+}  // namespace mpmflow

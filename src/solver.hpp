@@ -1,0 +1,65 @@
+#pragma once
+// One explicit MPM step (the paper's Algorithm 1) over a grid slab and its particles.
+#include <memory>
+
+#include "case_config.hpp"
+#include "grid.hpp"
+#include "particles.hpp"
+#include "phase_timers.hpp"
+
+namespace mpmflow {
+
+class Solver {
+ public:
+  Solver(const CaseConfig& config, const GridSlab& slab, ParticleState particles);
+  ~Solver();
+  Solver(const Solver&) = delete;
+  Solver& operator=(const Solver&) = delete;
+
+  // dt = cfl h / max_p(|v_p| + c_p)  (paper eq. 29 with cfl = 0.5).
+  real_t stable_time_step();
+
+  // Advances particles and grid by dt: steps 2-12 of Algorithm 1.
+  void advance(real_t dt);
+
+  // One stable step from time t, shortened so as not to pass `target`; returns the new time
+  // (exactly `target` when it is reached, so outputs land on their times).
+  double step_towards(double t, double target);
+
+  long step_count() const { return step_count_; }
+  const ParticleState& particles() const { return particles_; }
+  ParticleState& particles() { return particles_; }
+  const GridFields& grid_fields() const { return grid_fields_; }
+  const GridSlab& slab() const { return slab_; }
+  PhaseTimers& timers() { return timers_; }
+  // The P2G ScatterView mode in use, after resolving "automatic" for this execution space.
+  P2GStrategy p2g_strategy() const;
+
+  // Nodal velocity is momentum / mass where the node carries more than this mass; below it a node
+  // is treated as empty (no velocity, no acceleration), so nearly empty nodes at the edge of the
+  // particle cloud cannot produce huge accelerations.
+  real_t node_mass_threshold() const { return node_mass_threshold_; }
+
+  // The step itself, specialised on the P2G ScatterView duplication mode.
+  class Stepper;
+  template <class Duplication, class Shape>
+  class ScatterStepper;
+
+ private:
+  template <class Duplication>
+  std::unique_ptr<Stepper> make_stepper() const;
+
+ public:
+
+ private:
+  CaseConfig config_;
+  GridSlab slab_;
+  ParticleState particles_;
+  GridFields grid_fields_;
+  PhaseTimers timers_;
+  real_t node_mass_threshold_ = 0;
+  long step_count_ = 0;
+  std::unique_ptr<Stepper> stepper_;
+};
+
+}  // namespace mpmflow

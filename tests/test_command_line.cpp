@@ -1,0 +1,162 @@
+// The mpmflow executable as a user drives it: exit codes, error messages, and what it writes.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string output;  // stdout and stderr together
+};
+
+CommandResult run_mpmflow(const std::string& arguments, const fs::path& directory) {
+  const std::string command =
+      "cd '" + directory.string() + "' && '" + std::string(MPMFLOW_BINARY) + "' " + arguments + " 2>&1";
+  CommandResult result;
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return result;
+  char buffer[4096];
+  while (size_t n = fread(buffer, 1, sizeof buffer, pipe)) result.output.append(buffer, n);
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// A scratch directory holding a copy of cases/sod.json, edited by the test.
+class CommandLine : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::path(testing::TempDir()) /
+           ("mpmflow_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) + "_" +
+            std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    sod_text_ = read_text(fs::path(MPMFLOW_SOURCE_DIR) / "cases" / "sod.json");
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  void write_case(const std::string& name, const std::string& text) { std::ofstream(dir_ / name) << text; }
+  std::string sod_with(const std::string& from, const std::string& to) const {
+    std::string text = sod_text_;
+    const auto at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    return text.replace(at, from.size(), to);
+  }
+  // A bad case must fail with exit code 2, say `message`, and write nothing.
+  void expect_rejected(const std::string& arguments, const std::string& message) {
+    const CommandResult r = run_mpmflow(arguments + " --output out", dir_);
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos) << "expected: " << message << "\ngot:\n" << r.output;
+    EXPECT_FALSE(fs::exists(dir_ / "out")) << "an output directory was created for a rejected run";
+    EXPECT_FALSE(fs::exists(dir_ / "output"));
+  }
+
+  fs::path dir_;
+  std::string sod_text_;
+};
+
+TEST_F(CommandLine, VersionNamesKokkosAndExecutionSpace) {
+  const CommandResult r = run_mpmflow("--version", dir_);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("mpmflow "), std::string::npos);
+  EXPECT_NE(r.output.find("Kokkos "), std::string::npos);
+  EXPECT_NE(r.output.find("execution space"), std::string::npos);
+}
+
+TEST_F(CommandLine, UnknownKeyIsRejected) {
+  write_case("case.json", sod_with("\"cfl\": 0.5", "\"cfl\": 0.5, \"cfll\": 1"));
+  expect_rejected("run case.json", "case.json: /time/cfll: unknown key");
+}
+
+TEST_F(CommandLine, WrongTypeIsRejected) {
+  write_case("case.json", sod_with("\"cells_x\": 100", "\"cells_x\": 100.5"));
+  expect_rejected("run case.json", "case.json: /domain/cells_x: expected an integer");
+}
+
+TEST_F(CommandLine, OutOfRangeValueIsRejected) {
+  write_case("case.json", sod_with("\"pressure\": 0.1", "\"pressure\": 0"));
+  expect_rejected("run case.json", "case.json: /initial_state/background/pressure: expected a number > 0; got 0");
+}
+
+TEST_F(CommandLine, BadEnumIsRejected) {
+  write_case("case.json", sod_with("\"left\": { \"type\": \"slip_wall\" }", "\"left\": { \"type\": \"wall\" }"));
+  expect_rejected("run case.json", "case.json: /boundaries/left/type: expected one of slip_wall; got \"wall\"");
+}
+
+TEST_F(CommandLine, InvalidJsonAndMissingFileAreRejected) {
+  write_case("case.json", sod_text_.substr(0, sod_text_.size() / 2));
+  expect_rejected("run case.json", "case.json: not valid JSON");
+  expect_rejected("run missing.json", "missing.json: cannot open the case file");
+}
+
+TEST_F(CommandLine, BadOverrideAndUsageErrorsAreRejected) {
+  write_case("case.json", sod_text_);
+  expect_rejected("run case.json --set domain/cells_x=-3", "case.json: /domain/cells_x: expected an integer");
+  expect_rejected("run case.json --set cells_x", "expected PATH=VALUE");
+  expect_rejected("run case.json --frobnicate", "unknown option '--frobnicate'");
+  expect_rejected("run", "run needs a case file");
+}
+
+#ifdef MPMFLOW_HAVE_HDF5
+TEST_F(CommandLine, RunWritesHdf5SnapshotsXdmfAndDiagnostics) {
+  write_case("case.json", sod_text_);
+  const CommandResult r =
+      run_mpmflow("run case.json --output out --set domain/cells_x=20 --set output/snapshots=2", dir_);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("particle-steps/s"), std::string::npos);
+  EXPECT_NE(r.output.find("Time per phase"), std::string::npos);
+  for (const char* name : {"sod_000000.h5", "sod_000001.h5", "sod_000002.h5", "sod_particles.xmf", "sod_grid.xmf",
+                           "diagnostics.csv"})
+    EXPECT_TRUE(fs::exists(dir_ / "out" / name)) << name;
+  EXPECT_FALSE(fs::exists(dir_ / "out" / "sod_000003.h5"));
+  for (const auto& entry : fs::directory_iterator(dir_ / "out"))
+    EXPECT_NE(entry.path().extension(), ".tmp") << "temporary file left behind: " << entry.path();
+
+  const std::string xdmf = read_text(dir_ / "out" / "sod_particles.xmf");
+  EXPECT_NE(xdmf.find("<Time Value=\"0\"/>"), std::string::npos) << xdmf;
+  EXPECT_NE(xdmf.find("<Time Value=\"0.0715\"/>"), std::string::npos) << xdmf;
+  EXPECT_NE(xdmf.find("<Time Value=\"0.143\"/>"), std::string::npos) << xdmf;
+  EXPECT_NE(xdmf.find("sod_000002.h5:/particles/density"), std::string::npos);
+
+  // diagnostics.csv: a header and one line per output; the mass column never changes.
+  std::istringstream csv(read_text(dir_ / "out" / "diagnostics.csv"));
+  std::string line, first_mass;
+  int rows = -1;
+  while (std::getline(csv, line)) {
+    if (++rows == 0) continue;
+    std::istringstream fields(line);
+    std::string step, time, mass;
+    std::getline(fields, step, ',');
+    std::getline(fields, time, ',');
+    std::getline(fields, mass, ',');
+    if (first_mass.empty()) first_mass = mass;
+    EXPECT_EQ(mass, first_mass);
+  }
+  EXPECT_EQ(rows, 3);
+}
+#else
+TEST_F(CommandLine, OutputRequestWithoutHdf5IsRefused) {
+  write_case("case.json", sod_text_);
+  expect_rejected("run case.json", "built without HDF5");
+  const CommandResult r = run_mpmflow("run case.json --set output/snapshots=0", dir_);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("final: mass"), std::string::npos);
+}
+#endif
+
+}  // namespace

@@ -1,0 +1,344 @@
+// Invariants of the Q1 shape functions and of the generic transfer kernels.
+#include <gtest/gtest.h>
+
+#include <random>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "kernels/transfer_kernels.hpp"
+
+namespace mpmflow {
+namespace {
+
+// An 8 x 7 cell grid with spacing (0.5, 0.25) and origin (-1, 2): nothing about it is special.
+// As in the solver's slabs, the outer layer of cells is a ghost layer: particles live in cells
+// [1, cells - 1), and GIMP stencils of particles in the outer particle cells reach the ghost nodes.
+GridGeometry test_grid() {
+  GridGeometry g;
+  g.origin_x = -1;
+  g.origin_y = 2;
+  g.spacing_x = 0.5;
+  g.spacing_y = 0.25;
+  g.nodes_x = 9;
+  g.nodes_y = 8;
+  return g;
+}
+
+struct HostParticles {
+  std::vector<real_t> x, y, mass;
+};
+
+// Particles uniformly at random in the non-ghost cells, random masses.
+HostParticles random_particles(const GridGeometry& g, int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> ux(g.node_x(1), g.node_x(g.cells_x() - 1)),
+      uy(g.node_y(1), g.node_y(g.cells_y() - 1));
+  std::uniform_real_distribution<double> um(0.5, 2.0);
+  HostParticles p;
+  for (int k = 0; k < n; ++k) {
+    p.x.push_back(ux(rng));
+    p.y.push_back(uy(rng));
+    p.mass.push_back(um(rng));
+  }
+  return p;
+}
+
+// ppc x ppc particles per cell at the centres of a regular sub-grid, unit mass each: placement
+// symmetric about every interior node.
+HostParticles regular_particles(const GridGeometry& g, int ppc) {
+  HostParticles p;
+  for (int cj = 1; cj < g.cells_y() - 1; ++cj)
+    for (int ci = 1; ci < g.cells_x() - 1; ++ci)
+      for (int b = 0; b < ppc; ++b)
+        for (int a = 0; a < ppc; ++a) {
+          p.x.push_back(g.node_x(ci) + g.spacing_x * (a + 0.5) / ppc);
+          p.y.push_back(g.node_y(cj) + g.spacing_y * (b + 0.5) / ppc);
+          p.mass.push_back(1.0);
+        }
+  return p;
+}
+
+RealView to_device(const std::vector<real_t>& values, const char* label) {
+  RealView v(std::string(label), values.size());
+  auto h = Kokkos::create_mirror_view(v);
+  for (size_t k = 0; k < values.size(); ++k) h(k) = values[k];
+  Kokkos::deep_copy(v, h);
+  return v;
+}
+
+struct DeviceParticles {
+  ParticleLocations where;
+  RealView mass;
+  index_t count;
+};
+
+DeviceParticles to_device(const GridGeometry& g, const HostParticles& p) {
+  DeviceParticles d;
+  d.count = static_cast<index_t>(p.x.size());
+  d.where.x = to_device(p.x, "x");
+  d.where.y = to_device(p.y, "y");
+  d.where.cell = IndexView("cell", d.count);
+  d.mass = to_device(p.mass, "mass");
+  const auto x = d.where.x, y = d.where.y;
+  const auto cell = d.where.cell;
+  Kokkos::parallel_for(
+      d.count, KOKKOS_LAMBDA(const index_t k) { cell(k) = g.cell_of(x(k), y(k)); });
+  return d;
+}
+
+// The shape policies under test, each built for a grid and a set of particles. GIMP particles get
+// the domain of 3 x 3 particles per cell at stretch 1.
+struct MakeLinear {
+  static LinearShape make(const GridGeometry& g, index_t) { return LinearShape{g}; }
+  static constexpr const char* name = "linear";
+};
+struct MakeGimp {
+  static GimpShape make(const GridGeometry& g, index_t n) {
+    RealView sx("stretch_x", n), sy("stretch_y", n);
+    Kokkos::deep_copy(sx, 1.0);
+    Kokkos::deep_copy(sy, 1.0);
+    return GimpShape{g, g.spacing_x / 6, g.spacing_y / 6, sx, sy};
+  }
+  static constexpr const char* name = "gimp";
+};
+
+real_t linear_field(real_t x, real_t y) { return 3.0 - 2.0 * x + 0.75 * y; }
+
+// Particle functors used below.
+struct MassAndLinearField {  // M, M f(X)
+  static constexpr int num_components = 2;
+  RealView mass, x, y;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2]) const {
+    v[0] = mass(p);
+    v[1] = mass(p) * (3.0 - 2.0 * x(p) + 0.75 * y(p));
+  }
+};
+
+struct ConstantStressTimesVolume {  // G = s M (1, 0) and s M (0, 1), as the internal force
+  static constexpr int num_components = 2;
+  RealView mass;
+  real_t stress;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2][2]) const {
+    v[0][0] = stress * mass(p);
+    v[0][1] = 0;
+    v[1][0] = 0;
+    v[1][1] = stress * mass(p);
+  }
+};
+
+struct NodeColumnsRatio {  // node value = fields(i, 1) / fields(i, 0)
+  static constexpr int num_components = 1;
+  NodeFieldsView fields;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t i, real_t (&v)[1]) const {
+    v[0] = fields(i, 0) > 0 ? fields(i, 1) / fields(i, 0) : 0;
+  }
+};
+
+struct NodeColumn {  // node value = fields(i, 0)
+  static constexpr int num_components = 1;
+  NodeFieldsView fields;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t i, real_t (&v)[1]) const { v[0] = fields(i, 0); }
+};
+
+struct StoreValue {
+  RealView out;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&v)[1]) const { out(p) = v[0]; }
+};
+
+struct StoreGradient {
+  RealView out_x, out_y;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&g)[1][2]) const {
+    out_x(p) = g[0][0];
+    out_y(p) = g[0][1];
+  }
+};
+
+// Runs P2G of `functor` into a fresh (nodes x columns) View with a ScatterView of mode D.
+template <class D, bool derivative, class Shape, class Functor>
+NodeFieldsView run_p2g(const Shape& shape, const DeviceParticles& d, int columns, const Functor& f) {
+  NodeFieldsView fields("fields", shape.grid.num_nodes(), columns);
+  NodeScatterView<D> scatter(fields);
+  p2g_begin(scatter, fields);
+  if constexpr (derivative) p2gd("test_p2gd", shape, d.where, d.count, scatter, 0, f);
+  else p2g("test_p2g", shape, d.where, d.count, scatter, 0, f);
+  p2g_end(scatter, fields);
+  return fields;
+}
+
+// Every kernel test runs for each ScatterView mode and each shape function.
+template <class D, class M>
+struct Config {
+  using Duplication = D;
+  using MakeShape = M;
+};
+template <class C>
+class TransferKernels : public ::testing::Test {};
+using Dup = Kokkos::Experimental::ScatterDuplicated;
+using Atomic = Kokkos::Experimental::ScatterNonDuplicated;
+using Configs = ::testing::Types<Config<Dup, MakeLinear>, Config<Atomic, MakeLinear>, Config<Dup, MakeGimp>,
+                                 Config<Atomic, MakeGimp>>;
+struct ConfigNames {
+  template <class C>
+  static std::string GetName(int) {
+    const bool duplicated = std::is_same<typename C::Duplication, Dup>::value;
+    return std::string(C::MakeShape::name) + (duplicated ? "_duplicated" : "_atomic");
+  }
+};
+TYPED_TEST_SUITE(TransferKernels, Configs, ConfigNames);
+
+// Nodes whose whole support lies inside the particle region (two nodes in from the grid edge):
+// regular placement is symmetric about them.
+bool is_inner_node(const GridGeometry& g, int i, int j) {
+  return i >= 2 && j >= 2 && i <= g.nodes_x - 3 && j <= g.nodes_y - 3;
+}
+
+// True when every node the particle's stencil weights is an inner node.
+template <class Shape>
+bool stencil_is_inner(const Shape& shape, index_t p, index_t cell, real_t x, real_t y) {
+  const auto s = shape(p, cell, x, y);
+  for (int a = 0; a < Shape::stencil_size; ++a)
+    if (s.weight[a] != 0 && !is_inner_node(shape.grid, s.node[a] % shape.grid.nodes_x, s.node[a] / shape.grid.nodes_x))
+      return false;
+  return true;
+}
+
+TYPED_TEST(TransferKernels, PartitionOfUnityAndZeroGradientSum) {
+  const GridGeometry g = test_grid();
+  const HostParticles p = random_particles(g, 500, 1);
+  const auto shape = TypeParam::MakeShape::make(g, 500);
+  for (size_t k = 0; k < p.x.size(); ++k) {
+    const auto s = shape(k, g.cell_of(p.x[k], p.y[k]), p.x[k], p.y[k]);
+    double sum = 0, gx = 0, gy = 0;
+    for (int a = 0; a < decltype(shape)::stencil_size; ++a) {
+      EXPECT_GE(s.weight[a], -1e-15);
+      EXPECT_LE(s.weight[a], 1 + 1e-15);
+      sum += s.weight[a];
+      gx += s.grad_x[a];
+      gy += s.grad_y[a];
+    }
+    EXPECT_NEAR(sum, 1.0, 1e-14);
+    EXPECT_NEAR(gx, 0.0, 1e-12);
+    EXPECT_NEAR(gy, 0.0, 1e-12);
+  }
+}
+
+TEST(ShapeFunctions, NodalInterpolationProperty) {
+  const GridGeometry g = test_grid();
+  // At a cell's corner node the weight of that node is 1 and the others 0.
+  const Stencil<4> s = q1_stencil(g, g.cell_of(g.node_x(2), g.node_y(3)), g.node_x(2), g.node_y(3));
+  // (GIMP averages the hat over the particle domain, so it is not interpolating: not tested.)
+  EXPECT_EQ(s.node[0], g.node_index(2, 3));
+  EXPECT_DOUBLE_EQ(s.weight[0], 1.0);
+  EXPECT_DOUBLE_EQ(s.weight[1] + s.weight[2] + s.weight[3], 0.0);
+}
+
+TYPED_TEST(TransferKernels, G2PReproducesLinearNodalFieldAndGradientExactly) {
+  const GridGeometry g = test_grid();
+  const DeviceParticles d = to_device(g, random_particles(g, 400, 2));
+  const auto shape = TypeParam::MakeShape::make(g, d.count);
+  NodeFieldsView nodal("nodal", g.num_nodes(), 1);
+  auto h = Kokkos::create_mirror_view(nodal);
+  for (int j = 0; j < g.nodes_y; ++j)
+    for (int i = 0; i < g.nodes_x; ++i) h(g.node_index(i, j), 0) = linear_field(g.node_x(i), g.node_y(j));
+  Kokkos::deep_copy(nodal, h);
+
+  RealView value("value", d.count), grad_x("grad_x", d.count), grad_y("grad_y", d.count);
+  g2p("test_g2p", shape, d.where, d.count, NodeColumn{nodal}, StoreValue{value});
+  g2pd("test_g2pd", shape, d.where, d.count, NodeColumn{nodal}, StoreGradient{grad_x, grad_y});
+  auto hv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), value);
+  auto hx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.x);
+  auto hy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.y);
+  auto hgx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grad_x);
+  auto hgy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grad_y);
+  for (index_t k = 0; k < d.count; ++k) {
+    EXPECT_NEAR(hv(k), linear_field(hx(k), hy(k)), 1e-13);
+    EXPECT_NEAR(hgx(k), -2.0, 1e-12);
+    EXPECT_NEAR(hgy(k), 0.75, 1e-12);
+  }
+}
+
+TYPED_TEST(TransferKernels, P2GConservesMass) {
+  const GridGeometry g = test_grid();
+  const HostParticles p = random_particles(g, 1000, 3);
+  const DeviceParticles d = to_device(g, p);
+  const auto shape = TypeParam::MakeShape::make(g, d.count);
+  const NodeFieldsView fields = run_p2g<typename TypeParam::Duplication, false>(shape, d, 2, MassAndLinearField{d.mass, d.where.x, d.where.y});
+  auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fields);
+  double node_total = 0, particle_total = 0;
+  for (int i = 0; i < g.num_nodes(); ++i) node_total += h(i, 0);
+  for (double m : p.mass) particle_total += m;
+  EXPECT_NEAR(node_total, particle_total, 1e-12 * particle_total);
+}
+
+TYPED_TEST(TransferKernels, P2GThenG2PReproducesLinearFieldsExactly) {
+  // With placement symmetric about each interior node, the mass-weighted nodal average of a
+  // linear field equals its nodal value, and G2P then reproduces it at every particle whose cell
+  // has only interior nodes.
+  const GridGeometry g = test_grid();
+  const DeviceParticles d = to_device(g, regular_particles(g, 3));
+  const auto shape = TypeParam::MakeShape::make(g, d.count);
+  const NodeFieldsView fields = run_p2g<typename TypeParam::Duplication, false>(shape, d, 2, MassAndLinearField{d.mass, d.where.x, d.where.y});
+  auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fields);
+  for (int j = 0; j < g.nodes_y; ++j)
+    for (int i = 0; i < g.nodes_x; ++i) {
+      if (!is_inner_node(g, i, j)) continue;
+      const int n = g.node_index(i, j);
+      EXPECT_NEAR(h(n, 1) / h(n, 0), linear_field(g.node_x(i), g.node_y(j)), 1e-13) << "node " << i << "," << j;
+    }
+
+  RealView value("value", d.count);
+  g2p("test_g2p", shape, d.where, d.count, NodeColumnsRatio{fields}, StoreValue{value});
+  auto hv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), value);
+  auto hx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.x);
+  auto hy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.y);
+  auto hc = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.cell);
+  int checked = 0;
+  for (index_t k = 0; k < d.count; ++k) {
+    if (!stencil_is_inner(shape, k, hc(k), hx(k), hy(k))) continue;
+    EXPECT_NEAR(hv(k), linear_field(hx(k), hy(k)), 1e-13);
+    ++checked;
+  }
+  // At least every particle of the cells whose four corners are inner nodes was checked.
+  EXPECT_GE(checked, (g.cells_x() - 5) * (g.cells_y() - 5) * 9);
+}
+
+TYPED_TEST(TransferKernels, P2GDOfConstantFieldSumsToZero) {
+  const GridGeometry g = test_grid();
+  {  // Random particles: the sum over all nodes vanishes (the gradients of a partition of unity).
+    const DeviceParticles d = to_device(g, random_particles(g, 1000, 4));
+    const auto shape = TypeParam::MakeShape::make(g, d.count);
+    const NodeFieldsView f = run_p2g<typename TypeParam::Duplication, true>(shape, d, 2, ConstantStressTimesVolume{d.mass, 2.5});
+    auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), f);
+    double sum_x = 0, sum_y = 0, scale = 0;
+    for (int i = 0; i < g.num_nodes(); ++i) {
+      sum_x += h(i, 0);
+      sum_y += h(i, 1);
+      scale += std::fabs(h(i, 0)) + std::fabs(h(i, 1));
+    }
+    EXPECT_GT(scale, 1.0);
+    EXPECT_NEAR(sum_x, 0.0, 1e-12 * scale);
+    EXPECT_NEAR(sum_y, 0.0, 1e-12 * scale);
+  }
+  {  // Regular particles: a uniform pressure exerts no force on any interior node.
+    const DeviceParticles d = to_device(g, regular_particles(g, 3));
+    const auto shape = TypeParam::MakeShape::make(g, d.count);
+    const NodeFieldsView f = run_p2g<typename TypeParam::Duplication, true>(shape, d, 2, ConstantStressTimesVolume{d.mass, 2.5});
+    auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), f);
+    double interior_sum = 0;
+    for (int j = 0; j < g.nodes_y; ++j)
+      for (int i = 0; i < g.nodes_x; ++i) {
+        if (!is_inner_node(g, i, j)) continue;
+        const int n = g.node_index(i, j);
+        EXPECT_NEAR(h(n, 0), 0.0, 1e-12);
+        EXPECT_NEAR(h(n, 1), 0.0, 1e-12);
+        interior_sum += h(n, 0) + h(n, 1);
+      }
+    EXPECT_NEAR(interior_sum, 0.0, 1e-12);
+    // ...while the nodes on the edge of the gas do feel it (the test is not vacuous).
+    EXPECT_GT(std::fabs(h(g.node_index(1, 3), 0)), 1.0);
+  }
+}
+
+}  // namespace
+}  // namespace mpmflow
