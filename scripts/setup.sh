@@ -45,6 +45,30 @@ if [ -n "${Kokkos_ROOT:-}" ]; then
   exit 0
 fi
 
+# A Kokkos that CMake finds by itself (installed in a system prefix, or on CMAKE_PREFIX_PATH).
+probe_dir=$(mktemp -d)
+trap 'rm -rf "$probe_dir"' EXIT
+cat >"$probe_dir/CMakeLists.txt" <<'PROBE'
+cmake_minimum_required(VERSION 3.16)
+project(mpmflow_kokkos_probe CXX)
+find_package(Kokkos CONFIG QUIET)
+if(Kokkos_FOUND)
+  file(WRITE "${CMAKE_BINARY_DIR}/kokkos_dir" "${Kokkos_DIR}")
+endif()
+find_package(KokkosKernels CONFIG QUIET)
+if(KokkosKernels_FOUND)
+  file(WRITE "${CMAKE_BINARY_DIR}/kokkos_kernels_dir" "${KokkosKernels_DIR}")
+endif()
+PROBE
+if cmake -S "$probe_dir" -B "$probe_dir/build" >/dev/null 2>&1 && [ -f "$probe_dir/build/kokkos_dir" ]; then
+  kokkos_dir=$(cat "$probe_dir/build/kokkos_dir")
+  log "using the Kokkos CMake finds: $kokkos_dir"
+  args="-DKokkos_DIR=$kokkos_dir"
+  [ -f "$probe_dir/build/kokkos_kernels_dir" ] && args="$args -DKokkosKernels_DIR=$(cat "$probe_dir/build/kokkos_kernels_dir")"
+  echo "$args"
+  exit 0
+fi
+
 if [ -f "$prefix/.complete" ]; then
   log "reusing Kokkos + Kokkos Kernels in $prefix"
   echo "-DKokkos_ROOT=$prefix -DKokkosKernels_ROOT=$prefix"
