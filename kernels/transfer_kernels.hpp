@@ -62,21 +62,28 @@ void p2g_end(ScatterViewType& scatter, const NodeFieldsView& target) {
   scatter.contribute_into(target);
 }
 
-// P2G (eq. 16): node(i, c) += sum_p F_c(p) phi_i(X_p).
-template <class Shape, class ScatterViewType, class ParticleFunctor>
-void p2g(const char* label, const Shape& shape, const ParticleLocations& particles,
-         index_t num_particles, ScatterViewType& scatter, int first_component,
-         const ParticleFunctor& functor) {
-  constexpr int N = ParticleFunctor::num_components;
+// Runs body(p, stencil) for every particle p, with its stencil from the shape policy: the one
+// particle loop all four transfer kernels share.
+template <class Shape, class Body>
+void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
+                               index_t num_particles, const Body& body) {
   const auto x = particles.x;
   const auto y = particles.y;
   const auto cell = particles.cell;
   Kokkos::parallel_for(
       label, Kokkos::RangePolicy<ExecutionSpace>(0, num_particles),
-      KOKKOS_LAMBDA(const index_t p) {
+      KOKKOS_LAMBDA(const index_t p) { body(p, shape(p, cell(p), x(p), y(p))); });
+}
+
+// P2G (eq. 16): node(i, c) += sum_p F_c(p) phi_i(X_p).
+template <class Shape, class ScatterViewType, class ParticleFunctor>
+void p2g(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,
+         ScatterViewType& scatter, int first_component, const ParticleFunctor& functor) {
+  constexpr int N = ParticleFunctor::num_components;
+  for_each_particle_stencil(
+      label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
         real_t value[N];
         functor(p, value);
-        const auto s = shape(p, cell(p), x(p), y(p));
         auto access = scatter.access();
         for (int a = 0; a < Shape::stencil_size; ++a)
           for (int c = 0; c < N; ++c) access(s.node[a], first_component + c) += s.weight[a] * value[c];
@@ -85,39 +92,27 @@ void p2g(const char* label, const Shape& shape, const ParticleLocations& particl
 
 // P2GD (eq. 18): node(i, c) += sum_p G_c(p) . grad phi_i(X_p).
 template <class Shape, class ScatterViewType, class ParticleFunctor>
-void p2gd(const char* label, const Shape& shape, const ParticleLocations& particles,
-          index_t num_particles, ScatterViewType& scatter, int first_component,
-          const ParticleFunctor& functor) {
+void p2gd(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,
+          ScatterViewType& scatter, int first_component, const ParticleFunctor& functor) {
   constexpr int N = ParticleFunctor::num_components;
-  const auto x = particles.x;
-  const auto y = particles.y;
-  const auto cell = particles.cell;
-  Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, num_particles),
-      KOKKOS_LAMBDA(const index_t p) {
+  for_each_particle_stencil(
+      label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
         real_t vector[N][2];
         functor(p, vector);
-        const auto s = shape(p, cell(p), x(p), y(p));
         auto access = scatter.access();
         for (int a = 0; a < Shape::stencil_size; ++a)
           for (int c = 0; c < N; ++c)
-            access(s.node[a], first_component + c) +=
-                vector[c][0] * s.grad_x[a] + vector[c][1] * s.grad_y[a];
+            access(s.node[a], first_component + c) += vector[c][0] * s.grad_x[a] + vector[c][1] * s.grad_y[a];
       });
 }
 
 // G2P (eq. 17): value_c(p) = sum_i F_c(node i) phi_i(X_p), handed to sink(p, value).
 template <class Shape, class NodeFunctor, class ParticleSink>
-void g2p(const char* label, const Shape& shape, const ParticleLocations& particles,
-         index_t num_particles, const NodeFunctor& node_functor, const ParticleSink& sink) {
+void g2p(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,
+         const NodeFunctor& node_functor, const ParticleSink& sink) {
   constexpr int N = NodeFunctor::num_components;
-  const auto x = particles.x;
-  const auto y = particles.y;
-  const auto cell = particles.cell;
-  Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, num_particles),
-      KOKKOS_LAMBDA(const index_t p) {
-        const auto s = shape(p, cell(p), x(p), y(p));
+  for_each_particle_stencil(
+      label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
         real_t value[N];
         for (int c = 0; c < N; ++c) value[c] = 0;
         for (int a = 0; a < Shape::stencil_size; ++a) {
@@ -131,16 +126,11 @@ void g2p(const char* label, const Shape& shape, const ParticleLocations& particl
 
 // G2PD (eq. 19): gradient_c(p) = sum_i F_c(node i) grad phi_i(X_p), handed to sink(p, gradient).
 template <class Shape, class NodeFunctor, class ParticleSink>
-void g2pd(const char* label, const Shape& shape, const ParticleLocations& particles,
-          index_t num_particles, const NodeFunctor& node_functor, const ParticleSink& sink) {
+void g2pd(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,
+          const NodeFunctor& node_functor, const ParticleSink& sink) {
   constexpr int N = NodeFunctor::num_components;
-  const auto x = particles.x;
-  const auto y = particles.y;
-  const auto cell = particles.cell;
-  Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, num_particles),
-      KOKKOS_LAMBDA(const index_t p) {
-        const auto s = shape(p, cell(p), x(p), y(p));
+  for_each_particle_stencil(
+      label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
         real_t gradient[N][2];
         for (int c = 0; c < N; ++c) gradient[c][0] = gradient[c][1] = 0;
         for (int a = 0; a < Shape::stencil_size; ++a) {

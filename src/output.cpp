@@ -105,8 +105,9 @@ SnapshotWriter::SnapshotWriter(std::string directory, std::string case_name)
 std::string SnapshotWriter::particles_xdmf_path() const { return directory_ + "/" + case_name_ + "_particles.xmf"; }
 std::string SnapshotWriter::grid_xdmf_path() const { return directory_ + "/" + case_name_ + "_grid.xmf"; }
 
-std::string SnapshotWriter::write(int index, long step, double time, const Solver& solver,
+std::string SnapshotWriter::write(int index, long step, double time, Solver& solver,
                                   const ConservationTotals& totals) {
+  solver.project_to_grid();
   std::ostringstream name;
   name << case_name_ << '_' << std::setw(6) << std::setfill('0') << index << ".h5";
   const std::string path = directory_ + "/" + name.str();

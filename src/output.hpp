@@ -31,8 +31,9 @@ class SnapshotWriter {
   // Creates `directory` if needed. Files are named <case_name>_<index>.h5.
   SnapshotWriter(std::string directory, std::string case_name);
 
-  // Writes snapshot `index` and refreshes the XDMF time series; returns the HDF5 path.
-  std::string write(int index, long step, double time, const Solver& solver, const ConservationTotals& totals);
+  // Writes snapshot `index` and refreshes the XDMF time series; returns the HDF5 path. The grid
+  // fields are the particles' mass and momentum projected where the particles are now.
+  std::string write(int index, long step, double time, Solver& solver, const ConservationTotals& totals);
 
   std::string particles_xdmf_path() const;
   std::string grid_xdmf_path() const;

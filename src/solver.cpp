@@ -99,6 +99,7 @@ class Solver::Stepper {
  public:
   virtual ~Stepper() = default;
   virtual void advance(Solver& solver, real_t dt) = 0;
+  virtual void project_mass_and_momentum(Solver& solver) = 0;
   virtual P2GStrategy strategy() const = 0;
 };
 
@@ -114,6 +115,7 @@ class Solver::ScatterStepper final : public Solver::Stepper {
   }
 
   void advance(Solver& solver, real_t dt) override;
+  void project_mass_and_momentum(Solver& solver) override;
 
  private:
   // Kept alive across steps: creating a duplicated ScatterView allocates a copy per thread.
@@ -121,6 +123,17 @@ class Solver::ScatterStepper final : public Solver::Stepper {
   NodeScatterView<Duplication> remap_scatter_;
   Shape shape_;
 };
+
+template <class Duplication, class Shape>
+void Solver::ScatterStepper<Duplication, Shape>::project_mass_and_momentum(Solver& solver) {
+  const ParticleState& pt = solver.particles_;
+  const NodeFieldsView state = solver.grid_fields_.state;
+  Kokkos::deep_copy(state, real_t(0));
+  p2g_begin(state_scatter_, state);
+  p2g("p2g_mass_momentum", shape_, pt.locations(), pt.count, state_scatter_, GridFields::mass,
+      MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y});
+  p2g_end(state_scatter_, state);
+}
 
 template <class Duplication, class Shape>
 void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t dt) {
@@ -270,6 +283,11 @@ real_t Solver::stable_time_step() {
 void Solver::advance(real_t dt) {
   stepper_->advance(*this, dt);
   ++step_count_;
+}
+
+void Solver::project_to_grid() {
+  auto t = timers_.scope("project_to_grid");
+  stepper_->project_mass_and_momentum(*this);
 }
 
 double Solver::step_towards(double t, double target) {

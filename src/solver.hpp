@@ -26,6 +26,11 @@ class Solver {
   // (exactly `target` when it is reached, so outputs land on their times).
   double step_towards(double t, double target);
 
+  // Maps mass and momentum of the particles, where they are now, onto the grid (the first P2G of
+  // a step), so that grid output describes the same state as the particles. Steps begin with a
+  // grid reset, so this never affects the solution.
+  void project_to_grid();
+
   long step_count() const { return step_count_; }
   const ParticleState& particles() const { return particles_; }
   ParticleState& particles() { return particles_; }

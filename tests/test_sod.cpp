@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <memory>
 #include <numeric>
 #include <vector>
 
@@ -41,19 +42,44 @@ CaseConfig sod_case(int cells, ShapeFunction shape) {
   return c;
 }
 
-SodResult run_sod(const CaseConfig& config) {
-  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
-  Solver solver(config, slab, create_initial_particles(config, slab));
-  DiagnosticsCalculator diagnostics(solver.particles().count);
-  SodResult r;
-  r.initial = diagnostics.compute(solver.particles());
-  double t = 0;
-  while (t < kEndTime) t = solver.step_towards(t, kEndTime);
-  r.final = diagnostics.compute(solver.particles());
-  r.steps = solver.step_count();
-  r.cell_size = slab.geometry.spacing_x;
+// Reverses the order of the particles in memory (every field alike).
+void reverse_particle_order(ParticleState& pt) {
+  auto reverse = [&](auto view) {
+    auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
+    std::reverse(host.data(), host.data() + pt.count);
+    Kokkos::deep_copy(view, host);
+  };
+  reverse(pt.position_x), reverse(pt.position_y), reverse(pt.velocity_x), reverse(pt.velocity_y);
+  reverse(pt.grid_velocity_x), reverse(pt.grid_velocity_y), reverse(pt.mass), reverse(pt.density);
+  reverse(pt.specific_energy), reverse(pt.pressure), reverse(pt.artificial_viscosity);
+  reverse(pt.domain_stretch_x), reverse(pt.domain_stretch_y), reverse(pt.cell), reverse(pt.id);
+}
 
-  const ParticleState& pt = solver.particles();
+// A solver for `config` (optionally with the particles in reverse memory order), run to t = 0.143.
+std::unique_ptr<Solver> run_to_end(const CaseConfig& config, bool reverse_first = false) {
+  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+  ParticleState initial = create_initial_particles(config, slab);
+  if (reverse_first) reverse_particle_order(initial);
+  auto solver = std::make_unique<Solver>(config, slab, initial);
+  double t = 0;
+  while (t < kEndTime) t = solver->step_towards(t, kEndTime);
+  return solver;
+}
+
+SodResult run_sod(const CaseConfig& config) {
+  SodResult r;
+  {
+    const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+    DiagnosticsCalculator diagnostics(0);
+    r.initial = diagnostics.compute(create_initial_particles(config, slab));
+    r.cell_size = slab.geometry.spacing_x;
+  }
+  const auto solver = run_to_end(config);
+  DiagnosticsCalculator diagnostics(solver->particles().count);
+  r.final = diagnostics.compute(solver->particles());
+  r.steps = solver->step_count();
+
+  const ParticleState& pt = solver->particles();
   auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.position_x);
   auto rho = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.density);
   auto mass = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.mass);
@@ -111,30 +137,12 @@ TEST(Sod, MassConservedToRoundOffAndEnergyDriftSmall) {
   EXPECT_NEAR(r.final.momentum_x, (1.0 - 0.1) * 0.01 * kEndTime, 1e-12);
 }
 
-// Reverses the order of the particles in memory (every field alike).
-void reverse_particle_order(ParticleState& pt) {
-  auto reverse = [&](auto view) {
-    auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
-    std::reverse(host.data(), host.data() + pt.count);
-    Kokkos::deep_copy(view, host);
-  };
-  reverse(pt.position_x), reverse(pt.position_y), reverse(pt.velocity_x), reverse(pt.velocity_y);
-  reverse(pt.grid_velocity_x), reverse(pt.grid_velocity_y), reverse(pt.mass), reverse(pt.density);
-  reverse(pt.specific_energy), reverse(pt.pressure), reverse(pt.artificial_viscosity);
-  reverse(pt.domain_stretch_x), reverse(pt.domain_stretch_y), reverse(pt.cell), reverse(pt.id);
-}
-
 // Final (id, density, x) of every particle, sorted by id; optionally starting from the particles
 // in reverse order, and reporting whether the memory order ended up cell-sorted.
 std::vector<std::array<double, 3>> final_state_by_id(const CaseConfig& config, bool reverse_first,
                                                      bool* ends_sorted_by_cell = nullptr) {
-  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
-  ParticleState initial = create_initial_particles(config, slab);
-  if (reverse_first) reverse_particle_order(initial);
-  Solver solver(config, slab, initial);
-  double t = 0;
-  while (t < kEndTime) t = solver.step_towards(t, kEndTime);
-  const ParticleState& pt = solver.particles();
+  const auto solver = run_to_end(config, reverse_first);
+  const ParticleState& pt = solver->particles();
   auto id = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.id);
   auto rho = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.density);
   auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.position_x);
