@@ -16,7 +16,7 @@ class Solver {
   Solver(const Solver&) = delete;
   Solver& operator=(const Solver&) = delete;
 
-  // dt = cfl h / max_p(|v_p| + c_p)  (paper eq. 29 with cfl = 0.5).
+  // dt = cfl h / max_p(|v_p| + c_p), h the smaller cell side (paper eq. 29 with cfl = 0.5).
   real_t stable_time_step();
 
   // Advances particles and grid by dt: steps 2-12 of Algorithm 1.
@@ -45,7 +45,8 @@ class Solver {
   // particle cloud cannot produce huge accelerations.
   real_t node_mass_threshold() const { return node_mass_threshold_; }
 
-  // The step itself, specialised on the P2G ScatterView duplication mode.
+  // The step itself, specialised on the P2G ScatterView duplication mode and the shape function.
+  // Public so that device lambdas may be defined in its member functions (a CUDA requirement).
   class Stepper;
   template <class Duplication, class Shape>
   class ScatterStepper;
@@ -54,9 +55,6 @@ class Solver {
   template <class Duplication>
   std::unique_ptr<Stepper> make_stepper() const;
 
- public:
-
- private:
   CaseConfig config_;
   GridSlab slab_;
   ParticleState particles_;
