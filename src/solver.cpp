@@ -101,6 +101,7 @@ class Solver::Stepper {
   virtual void advance(Solver& solver, real_t dt) = 0;
   virtual void project_mass_and_momentum(Solver& solver) = 0;
   virtual P2GStrategy strategy() const = 0;
+  virtual size_t scatter_copy_bytes() const = 0;
 };
 
 template <class Duplication, class Shape>
@@ -116,6 +117,13 @@ class Solver::ScatterStepper final : public Solver::Stepper {
 
   void advance(Solver& solver, real_t dt) override;
   void project_mass_and_momentum(Solver& solver) override;
+
+  // A duplicated ScatterView holds one copy of its target per thread (the target itself aside).
+  size_t scatter_copy_bytes() const override {
+    if (!std::is_same<Duplication, Kokkos::Experimental::ScatterDuplicated>::value) return 0;
+    const size_t copies = static_cast<size_t>(ExecutionSpace().concurrency());
+    return copies * sizeof(real_t) * (state_scatter_.subview().span() + remap_scatter_.subview().span());
+  }
 
  private:
   // Kept alive across steps: creating a duplicated ScatterView allocates a copy per thread.
@@ -266,6 +274,19 @@ Solver::Solver(const CaseConfig& config, const GridSlab& slab, ParticleState par
 Solver::~Solver() = default;
 
 P2GStrategy Solver::p2g_strategy() const { return stepper_->strategy(); }
+
+Solver::MemoryUse Solver::memory_use() const {
+  MemoryUse use;
+  const ParticleState& pt = particles_;
+  for (const RealView& v : {pt.position_x, pt.position_y, pt.velocity_x, pt.velocity_y, pt.grid_velocity_x,
+                            pt.grid_velocity_y, pt.mass, pt.density, pt.specific_energy, pt.pressure,
+                            pt.artificial_viscosity, pt.domain_stretch_x, pt.domain_stretch_y})
+    use.particle_bytes += v.span() * sizeof(real_t);
+  use.particle_bytes += pt.cell.span() * sizeof(index_t) + pt.id.span() * sizeof(particle_id_t);
+  use.grid_bytes = (grid_fields_.state.span() + grid_fields_.momentum_remap.span()) * sizeof(real_t);
+  use.scatter_copy_bytes = stepper_->scatter_copy_bytes();
+  return use;
+}
 
 real_t Solver::stable_time_step() {
   auto t = timers_.scope("time_step");

@@ -40,6 +40,16 @@ class Solver {
   // The P2G ScatterView mode in use, after resolving "automatic" for this execution space.
   P2GStrategy p2g_strategy() const;
 
+  // Bytes of device memory the solver holds, by owner: particle fields, grid fields and the P2G
+  // ScatterViews' duplicated copies (zero for atomic ScatterViews, which write in place).
+  struct MemoryUse {
+    size_t particle_bytes = 0;
+    size_t grid_bytes = 0;
+    size_t scatter_copy_bytes = 0;
+    size_t total() const { return particle_bytes + grid_bytes + scatter_copy_bytes; }
+  };
+  MemoryUse memory_use() const;
+
   // Nodal velocity is momentum / mass where the node carries more than this mass; below it a node
   // is treated as empty (no velocity, no acceleration), so nearly empty nodes at the edge of the
   // particle cloud cannot produce huge accelerations.
