@@ -106,6 +106,31 @@ void p2gd(const char* label, const Shape& shape, const ParticleLocations& partic
       });
 }
 
+// P2G and P2GD fused (Algorithm 1, step 3): one pass, one stencil evaluation per particle, for
+// node(i, value columns) += F(p) phi_i and node(i, vector columns) += G(p) . grad phi_i into the
+// same ScatterView. Worth it because the stencil (and for GIMP its weights) dominates both.
+template <class Shape, class ScatterViewType, class ValueFunctor, class VectorFunctor>
+void p2g_and_p2gd(const char* label, const Shape& shape, const ParticleLocations& particles,
+                  index_t num_particles, ScatterViewType& scatter, int first_value_component,
+                  const ValueFunctor& value_functor, int first_vector_component,
+                  const VectorFunctor& vector_functor) {
+  constexpr int NV = ValueFunctor::num_components;
+  constexpr int ND = VectorFunctor::num_components;
+  for_each_particle_stencil(
+      label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
+        real_t value[NV];
+        real_t vector[ND][2];
+        value_functor(p, value);
+        vector_functor(p, vector);
+        auto access = scatter.access();
+        for (int a = 0; a < Shape::stencil_size; ++a) {
+          for (int c = 0; c < NV; ++c) access(s.node[a], first_value_component + c) += s.weight[a] * value[c];
+          for (int c = 0; c < ND; ++c)
+            access(s.node[a], first_vector_component + c) += vector[c][0] * s.grad_x[a] + vector[c][1] * s.grad_y[a];
+        }
+      });
+}
+
 // G2P (eq. 17): value_c(p) = sum_i F_c(node i) phi_i(X_p), handed to sink(p, value).
 template <class Shape, class NodeFunctor, class ParticleSink>
 void g2p(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,

@@ -165,10 +165,10 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
   {  // 3. mass, momentum and force P2G
     auto t = timers.scope("p2g_mass_momentum_force");
     p2g_begin(state_scatter_, state);
-    p2g("p2g_mass_momentum", shape, where, n, state_scatter_, GridFields::mass,
-        MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y});
-    p2gd("p2gd_internal_force", shape, where, n, state_scatter_, GridFields::force_x,
-         InternalForce{pt.pressure, pt.artificial_viscosity, pt.mass, pt.density});
+    // Fused: the paper's P2G(M), P2G(M V) and P2GD((P + Q) M / rho) in one pass over the particles.
+    p2g_and_p2gd("p2g_mass_momentum_force", shape, where, n, state_scatter_, GridFields::mass,
+                 MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y}, GridFields::force_x,
+                 InternalForce{pt.pressure, pt.artificial_viscosity, pt.mass, pt.density});
     p2g_end(state_scatter_, state);
   }
   {  // 4. boundary conditions on momentum and force
