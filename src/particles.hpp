@@ -24,6 +24,18 @@ struct ParticleState {
 
   explicit ParticleState(index_t n = 0);
 
+  // Calls f(view) for every per-particle View: the one list of the fields, for everything that
+  // must treat all of them alike (reordering, migration, memory accounting).
+  template <class F>
+  void for_each_field(F&& f) const {
+    for (const RealView& v : {position_x, position_y, velocity_x, velocity_y, grid_velocity_x, grid_velocity_y,
+                              mass, density, specific_energy, pressure, artificial_viscosity, domain_stretch_x,
+                              domain_stretch_y})
+      f(v);
+    f(cell);
+    f(id);
+  }
+
   ParticleLocations locations() const { return {position_x, position_y, cell}; }
 };
 

@@ -1,5 +1,7 @@
 #include "solver.hpp"
 
+#include <type_traits>
+
 #include "boundary_conditions.hpp"
 #include "gas_physics.hpp"
 #include "kernels/blas1.hpp"
@@ -229,9 +231,7 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
   if (interval > 0 && (solver.step_count_ + 1) % interval == 0) {  // 12. optional reordering
     auto t = timers.scope("reorder");
     CellSorter sorter(pt.cell, n, grid.num_cells());
-    sorter.apply(pt.position_x, pt.position_y, pt.velocity_x, pt.velocity_y, pt.grid_velocity_x,
-                 pt.grid_velocity_y, pt.mass, pt.density, pt.specific_energy, pt.pressure,
-                 pt.artificial_viscosity, pt.domain_stretch_x, pt.domain_stretch_y, pt.id, pt.cell);
+    pt.for_each_field([&](const auto& field) { sorter.apply(field); });
   }
 }
 
@@ -277,12 +277,9 @@ P2GStrategy Solver::p2g_strategy() const { return stepper_->strategy(); }
 
 Solver::MemoryUse Solver::memory_use() const {
   MemoryUse use;
-  const ParticleState& pt = particles_;
-  for (const RealView& v : {pt.position_x, pt.position_y, pt.velocity_x, pt.velocity_y, pt.grid_velocity_x,
-                            pt.grid_velocity_y, pt.mass, pt.density, pt.specific_energy, pt.pressure,
-                            pt.artificial_viscosity, pt.domain_stretch_x, pt.domain_stretch_y})
-    use.particle_bytes += v.span() * sizeof(real_t);
-  use.particle_bytes += pt.cell.span() * sizeof(index_t) + pt.id.span() * sizeof(particle_id_t);
+  particles_.for_each_field([&](const auto& field) {
+    use.particle_bytes += field.span() * sizeof(typename std::decay_t<decltype(field)>::value_type);
+  });
   use.grid_bytes = (grid_fields_.state.span() + grid_fields_.momentum_remap.span()) * sizeof(real_t);
   use.scatter_copy_bytes = stepper_->scatter_copy_bytes();
   return use;

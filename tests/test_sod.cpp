@@ -44,15 +44,11 @@ CaseConfig sod_case(int cells, ShapeFunction shape) {
 
 // Reverses the order of the particles in memory (every field alike).
 void reverse_particle_order(ParticleState& pt) {
-  auto reverse = [&](auto view) {
+  pt.for_each_field([&](const auto& view) {
     auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
     std::reverse(host.data(), host.data() + pt.count);
     Kokkos::deep_copy(view, host);
-  };
-  reverse(pt.position_x), reverse(pt.position_y), reverse(pt.velocity_x), reverse(pt.velocity_y);
-  reverse(pt.grid_velocity_x), reverse(pt.grid_velocity_y), reverse(pt.mass), reverse(pt.density);
-  reverse(pt.specific_energy), reverse(pt.pressure), reverse(pt.artificial_viscosity);
-  reverse(pt.domain_stretch_x), reverse(pt.domain_stretch_y), reverse(pt.cell), reverse(pt.id);
+  });
 }
 
 // A solver for `config` (optionally with the particles in reverse memory order), run to t = 0.143.
