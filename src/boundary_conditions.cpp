@@ -1,38 +1,187 @@
 #include "boundary_conditions.hpp"
 
+#include <algorithm>
+#include <cmath>
+
+#include "gas_physics.hpp"
+
 namespace mpmflow {
 namespace {
 
-// Zeroes `column` on local node column i (all rows), if the slab holds it.
-void zero_node_column(const GridGeometry& geo, const NodeFieldsView& fields, index_t i, int column) {
-  if (i < 0 || i >= geo.nodes_x) return;
-  Kokkos::parallel_for(
-      "slip_wall_column", Kokkos::RangePolicy<ExecutionSpace>(0, geo.nodes_y),
-      KOKKOS_LAMBDA(const index_t j) { fields(geo.node_index(i, j), column) = 0; });
+// The local nodes of one line parallel to `side`, `layer` lines outside it (0: the side itself):
+// its fixed local index and whether it is a column (x fixed) or a row.
+struct SideLine {
+  index_t fixed;
+  bool column;
+  bool present;  // the slab holds the line
+};
+
+SideLine side_line(const GridSlab& slab, Side side, int layer) {
+  const GridGeometry& geo = slab.geometry;
+  switch (side) {
+    case left_side: {
+      const index_t i = slab.local_node_x(-layer);
+      return {i, true, i >= 0 && i < geo.nodes_x};
+    }
+    case right_side: {
+      const index_t i = slab.local_node_x(slab.global_cells_x + layer);
+      return {i, true, i >= 0 && i < geo.nodes_x};
+    }
+    case bottom_side: {
+      const index_t j = slab.local_node_y(-layer);
+      return {j, false, j >= 0 && j < geo.nodes_y};
+    }
+    default: {
+      const index_t j = slab.local_node_y(slab.global_cells_y + layer);
+      return {j, false, j >= 0 && j < geo.nodes_y};
+    }
+  }
 }
 
-// Zeroes `column` on local node row j (all columns), if the slab holds it.
-void zero_node_row(const GridGeometry& geo, const NodeFieldsView& fields, index_t j, int column) {
-  if (j < 0 || j >= geo.nodes_y) return;
+// Calls f(node, k) for the nodes of a side line, k the local index along the line.
+template <class F>
+void for_line_nodes(const char* label, const GridGeometry& geo, const SideLine& line, const F& f) {
+  if (!line.present) return;
+  const index_t count = line.column ? geo.nodes_y : geo.nodes_x;
+  const index_t fixed = line.fixed;
+  const bool column = line.column;
   Kokkos::parallel_for(
-      "slip_wall_row", Kokkos::RangePolicy<ExecutionSpace>(0, geo.nodes_x),
-      KOKKOS_LAMBDA(const index_t i) { fields(geo.node_index(i, j), column) = 0; });
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, count), KOKKOS_LAMBDA(const index_t k) {
+        f(column ? geo.node_index(fixed, k) : geo.node_index(k, fixed), k);
+      });
+}
+
+// (Free functions rather than private members: CUDA forbids device lambdas in private members.)
+void apply_open_sides(const GridSlab& slab, const BoundaryType (&side_type)[num_sides],
+                      const GasState& free_stream, const NodeFieldsView& momentum, int column_x,
+                      const NodeFieldsView& state, bool with_force) {
+  const GridGeometry& geo = slab.geometry;
+  const real_t vx = free_stream.velocity_x, vy = free_stream.velocity_y;
+  for (int s = 0; s < num_sides; ++s) {
+    const Side side = static_cast<Side>(s);
+    if (side_type[s] == BoundaryType::inflow) {
+      for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer)
+        for_line_nodes("inflow_nodes", geo, side_line(slab, side, layer), KOKKOS_LAMBDA(const index_t node, index_t) {
+          const real_t m = state(node, GridFields::mass);
+          momentum(node, column_x) = m * vx;
+          momentum(node, column_x + 1) = m * vy;
+          if (with_force) {
+            state(node, GridFields::force_x) = 0;
+            state(node, GridFields::force_y) = 0;
+          }
+        });
+    } else if (side_type[s] == BoundaryType::outflow && with_force) {
+      // Traction of the free-stream pressure: -p_inf n times the integral of N_i along the side,
+      // one node spacing per node and half of one at the side's ends.
+      const SideLine line = side_line(slab, side, 0);
+      const bool column = line.column;
+      const real_t spacing = column ? geo.spacing_y : geo.spacing_x;
+      const index_t first = column ? slab.local_node_y(0) : slab.local_node_x(0);
+      const index_t last = column ? slab.local_node_y(slab.global_cells_y) : slab.local_node_x(slab.global_cells_x);
+      const real_t outward = (side == left_side || side == bottom_side) ? real_t(-1) : real_t(1);
+      const real_t push = -free_stream.pressure * outward;
+      for_line_nodes("outflow_pressure", geo, line, KOKKOS_LAMBDA(const index_t node, const index_t k) {
+        if (k < first || k > last) return;
+        const real_t length = (k == first || k == last) ? spacing / 2 : spacing;
+        state(node, column ? GridFields::force_x : GridFields::force_y) += push * length;
+      });
+    }
+  }
+}
+
+void apply_slip_walls(const GridSlab& slab, const BoundaryType (&side_type)[num_sides],
+                      const NodeFieldsView& fields, int column_x) {
+  const GridGeometry& geo = slab.geometry;
+  for (int s = 0; s < num_sides; ++s) {
+    if (side_type[s] != BoundaryType::slip_wall) continue;
+    for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer) {
+      const SideLine line = side_line(slab, static_cast<Side>(s), layer);
+      const int normal_column = column_x + (line.column ? 0 : 1);
+      for_line_nodes("slip_wall", geo, line,
+                     KOKKOS_LAMBDA(const index_t node, index_t) { fields(node, normal_column) = 0; });
+    }
+  }
+}
+
+void remove_inward_component(const ObstacleGrid& obstacles, const NodeFieldsView& fields, int column_x) {
+  const index_t count = obstacles.num_obstacle_nodes();
+  if (count == 0) return;
+  const IndexView nodes = obstacles.obstacle_nodes;
+  const NodeFieldsView normals = obstacles.obstacle_normals;
+  Kokkos::parallel_for(
+      "obstacle_nodes", Kokkos::RangePolicy<ExecutionSpace>(0, count), KOKKOS_LAMBDA(const index_t k) {
+        const index_t node = nodes(k);
+        const real_t nx = normals(k, 0), ny = normals(k, 1);
+        // (a.n - |a.n|) / 2 is a.n where it points into the obstacle, 0 otherwise (eqs. 21-22).
+        const real_t a_n = fields(node, column_x) * nx + fields(node, column_x + 1) * ny;
+        const real_t inward = (a_n - (a_n < 0 ? -a_n : a_n)) / 2;
+        fields(node, column_x) -= inward * nx;
+        fields(node, column_x + 1) -= inward * ny;
+      });
 }
 
 }  // namespace
 
-void apply_slip_walls(const GridSlab& slab, const BoundaryConfig& boundaries, const NodeFieldsView& fields,
-                      int column_x, int column_y) {
-  // The wall line and the ghost nodes beyond it: GIMP stencils reach one node past the wall.
-  const GridGeometry& geo = slab.geometry;
-  const int g = GridSlab::ghost_layers;
-  for (int k = 0; k <= g; ++k) {
-    if (boundaries.left == BoundaryType::slip_wall) zero_node_column(geo, fields, slab.local_node_x(-k), column_x);
-    if (boundaries.right == BoundaryType::slip_wall)
-      zero_node_column(geo, fields, slab.local_node_x(slab.global_cells_x + k), column_x);
-    if (boundaries.bottom == BoundaryType::slip_wall) zero_node_row(geo, fields, slab.local_node_y(-k), column_y);
-    if (boundaries.top == BoundaryType::slip_wall)
-      zero_node_row(geo, fields, slab.local_node_y(slab.global_cells_y + k), column_y);
+GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const GridSlab& slab,
+                                               const ObstacleGrid& obstacles)
+    : slab_(slab),
+      side_type_{config.boundaries.left, config.boundaries.right, config.boundaries.bottom, config.boundaries.top},
+      free_stream_(config.boundaries.free_stream),
+      obstacles_(obstacles) {}
+
+void GridBoundaryConditions::apply_to_momentum_and_force(const NodeFieldsView& state) const {
+  apply_open_sides(slab_, side_type_, free_stream_, state, GridFields::momentum_x, state, /*with_force=*/true);
+  apply_slip_walls(slab_, side_type_, state, GridFields::momentum_x);
+  apply_slip_walls(slab_, side_type_, state, GridFields::force_x);
+  remove_inward_component(obstacles_, state, GridFields::momentum_x);
+  remove_inward_component(obstacles_, state, GridFields::force_x);
+}
+
+void GridBoundaryConditions::apply_to_momentum(const NodeFieldsView& momentum, int column_x,
+                                               const NodeFieldsView& state) const {
+  apply_open_sides(slab_, side_type_, free_stream_, momentum, column_x, state, /*with_force=*/false);
+  apply_slip_walls(slab_, side_type_, momentum, column_x);
+  remove_inward_component(obstacles_, momentum, column_x);
+}
+
+ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab& slab,
+                                       const ObstacleGrid& obstacle_grid)
+    : x_min(slab.domain_x_min),
+      x_max(slab.domain_x_max),
+      y_min(slab.domain_y_min),
+      y_max(slab.domain_y_max),
+      side_type{config.boundaries.left, config.boundaries.right, config.boundaries.bottom, config.boundaries.top},
+      grid(slab.geometry),
+      obstacles(obstacle_grid.obstacles),
+      cell_near_obstacle(obstacle_grid.cell_near_obstacle),
+      has_obstacles(!obstacle_grid.obstacles.empty()),
+      surface_offset(real_t(1e-6) * slab.cell_size()),
+      free_stream(config.boundaries.free_stream),
+      seed(config.particles.seed) {
+  real_t length = 0;
+  for (int s = 0; s < num_sides; ++s) {
+    if (side_type[s] != BoundaryType::inflow) continue;
+    length += (s == left_side || s == right_side) ? (y_max - y_min) : (x_max - x_min);
+    inflow_side[num_inflow_sides] = s;
+    inflow_length_end[num_inflow_sides] = length;
+    ++num_inflow_sides;
+  }
+  const real_t particles_per_cell = real_t(config.particles.per_cell_x * config.particles.per_cell_y);
+  free_stream_particle_mass = free_stream.density * slab.cell_area() / particles_per_cell;
+  free_stream_specific_energy = perfect_gas_specific_energy(config.physics.gamma, free_stream.density,
+                                                            free_stream.pressure);
+}
+
+void ParticleBoundaries::prepare_step(real_t dt, long step_index) {
+  step = static_cast<std::uint64_t>(step_index);
+  for (int k = 0; k < num_inflow_sides; ++k) {
+    const int s = inflow_side[k];
+    const bool x_normal = (s == left_side || s == right_side);
+    const real_t cell_depth = x_normal ? grid.spacing_x : grid.spacing_y;
+    const real_t inward_speed = x_normal ? (s == left_side ? free_stream.velocity_x : -free_stream.velocity_x)
+                                         : (s == bottom_side ? free_stream.velocity_y : -free_stream.velocity_y);
+    const real_t swept = inward_speed * dt;
+    strip_depth[k] = swept > 0 ? std::min(swept, cell_depth) : cell_depth;
   }
 }
 

@@ -1,5 +1,8 @@
 #include "case_config.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <set>
@@ -7,6 +10,8 @@
 #include <utility>
 
 #include <nlohmann/json.hpp>
+
+#include "geometry.hpp"
 
 namespace mpmflow {
 namespace {
@@ -154,7 +159,92 @@ std::pair<double, double> read_range(ObjectReader& r, const std::string& key) {
 }
 
 const std::vector<std::pair<std::string, BoundaryType>> kBoundaryTypes = {
-    {"slip_wall", BoundaryType::slip_wall}};
+    {"slip_wall", BoundaryType::slip_wall}, {"inflow", BoundaryType::inflow}, {"outflow", BoundaryType::outflow}};
+
+// Reads an array of two numbers [a, b].
+std::pair<double, double> read_pair(ObjectReader& r, const std::string& key, const std::string& phrase) {
+  const json& v = r.array(key);
+  if (v.size() != 2 || !v[0].is_number() || !v[1].is_number()) r.fail(r.at(key), phrase, v);
+  return {v[0].get<double>(), v[1].get<double>()};
+}
+
+// One obstacle of /obstacles, resolved into a circle or a closed polygon and checked: a points
+// file must exist and hold at least three points of a simple (not self-intersecting) polygon, and
+// the obstacle must lie inside the domain.
+ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const DomainConfig& domain,
+                             const std::filesystem::path& case_directory) {
+  ObstacleConfig obstacle;
+  obstacle.shape = r.choice("type", std::vector<std::pair<std::string, ObstacleShape>>{
+                                        {"circle", ObstacleShape::circle},
+                                        {"rectangle", ObstacleShape::rectangle},
+                                        {"polygon", ObstacleShape::polygon}});
+  obstacle.description = where + " (" + to_string(obstacle.shape) + ")";
+  double x_lo, x_hi, y_lo, y_hi;  // bounding box
+  if (obstacle.shape == ObstacleShape::circle) {
+    const auto centre = read_pair(r, "centre", "an array [x, y] of two numbers");
+    obstacle.centre_x = centre.first;
+    obstacle.centre_y = centre.second;
+    obstacle.radius = r.number("radius", Bounds::positive());
+    x_lo = centre.first - obstacle.radius;
+    x_hi = centre.first + obstacle.radius;
+    y_lo = centre.second - obstacle.radius;
+    y_hi = centre.second + obstacle.radius;
+  } else {
+    Polygon polygon;
+    if (obstacle.shape == ObstacleShape::rectangle) {
+      const auto xr = read_range(r, "x");
+      const auto yr = read_range(r, "y");
+      polygon = {{xr.first, yr.first}, {xr.second, yr.first}, {xr.second, yr.second}, {xr.first, yr.second}};
+    } else {
+      const std::string file = r.string("file");
+      const std::filesystem::path path = std::filesystem::path(file).is_absolute() ? std::filesystem::path(file) : case_directory / file;
+      try {
+        polygon = read_points_file(path.string());
+      } catch (const std::runtime_error& e) {
+        throw ConfigError(r.source() + ": " + r.at("file") + ": " + e.what());
+      }
+      PolygonTransform transform;
+      transform.scale = r.number_or("scale", 1.0, Bounds::positive());
+      transform.rotation_degrees = r.number_or("rotation_degrees", 0.0, Bounds::any());
+      if (r.has("translation")) {
+        const auto t = read_pair(r, "translation", "an array [dx, dy] of two numbers");
+        transform.translation_x = t.first;
+        transform.translation_y = t.second;
+      }
+      polygon = transformed(polygon, transform);
+      obstacle.description += " from " + path.string();
+    }
+    if (polygon.size() < 3)
+      throw ConfigError(r.source() + ": " + obstacle.description + ": expected a polygon of at least 3 points; got " +
+                        std::to_string(polygon.size()));
+    const std::string crossing = describe_self_intersection(polygon);
+    if (!crossing.empty())
+      throw ConfigError(r.source() + ": " + obstacle.description +
+                        ": expected a simple polygon; it intersects itself: " + crossing);
+    x_lo = y_lo = std::numeric_limits<double>::infinity();
+    x_hi = y_hi = -x_lo;
+    for (const Point& v : polygon) {
+      obstacle.vertices_x.push_back(v.x);
+      obstacle.vertices_y.push_back(v.y);
+      x_lo = std::min(x_lo, v.x);
+      x_hi = std::max(x_hi, v.x);
+      y_lo = std::min(y_lo, v.y);
+      y_hi = std::max(y_hi, v.y);
+    }
+  }
+  r.finish();
+  // An obstacle may touch the domain's edges (the step does) but not reach beyond them.
+  const double tolerance = 1e-9 * std::max(domain.x_max - domain.x_min, domain.y_max - domain.y_min);
+  if (x_lo < domain.x_min - tolerance || x_hi > domain.x_max + tolerance || y_lo < domain.y_min - tolerance ||
+      y_hi > domain.y_max + tolerance) {
+    std::ostringstream msg;
+    msg << r.source() << ": " << obstacle.description << ": expected an obstacle inside the domain ["
+        << domain.x_min << ", " << domain.x_max << "] x [" << domain.y_min << ", " << domain.y_max
+        << "]; its bounding box is [" << x_lo << ", " << x_hi << "] x [" << y_lo << ", " << y_hi << "]";
+    throw ConfigError(msg.str());
+  }
+  return obstacle;
+}
 
 BoundaryType read_boundary(ObjectReader& boundaries, const std::string& side) {
   if (!boundaries.has(side)) return BoundaryType::slip_wall;
@@ -165,11 +255,13 @@ BoundaryType read_boundary(ObjectReader& boundaries, const std::string& side) {
 }
 
 CaseConfig parse_document(const json& doc, const std::string& source) {
+  const std::filesystem::path case_directory = std::filesystem::path(source).parent_path();
   CaseConfig cfg;
   cfg.source = source;
   ObjectReader root(doc, source, "");
 
   cfg.name = root.string("name");
+  if (root.has("description")) cfg.description = root.string("description");  // free text, echoed in the banner
   if (cfg.name.empty() || cfg.name.find_first_not_of(
                               "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
                               std::string::npos)
@@ -217,11 +309,35 @@ CaseConfig parse_document(const json& doc, const std::string& source) {
     cfg.boundaries.top = read_boundary(r, "top");
     r.finish();
   }
+  const bool open_sides = cfg.boundaries.any(BoundaryType::inflow) || cfg.boundaries.any(BoundaryType::outflow);
+  if (root.has("free_stream")) {
+    ObjectReader r = root.object("free_stream");
+    cfg.boundaries.free_stream = read_gas_state(r);
+    cfg.boundaries.has_free_stream = true;
+    r.finish();
+  } else if (open_sides) {
+    throw ConfigError(source + ": /free_stream: required key is missing (a side is an inflow or an outflow, so "
+                      "the free-stream density, velocity and pressure are needed)");
+  }
+  if (cfg.boundaries.any(BoundaryType::outflow) && !cfg.boundaries.any(BoundaryType::inflow))
+    throw ConfigError(source + ": /boundaries: expected an inflow side where particles leaving through an outflow "
+                      "side re-enter; got outflow sides and no inflow");
+
+  if (root.has("obstacles")) {
+    const json& obstacles = root.array("obstacles");
+    for (size_t i = 0; i < obstacles.size(); ++i) {
+      const std::string where = "/obstacles/" + std::to_string(i);
+      ObjectReader r(obstacles[i], source, where);
+      cfg.obstacles.push_back(read_obstacle(r, where, cfg.domain, case_directory));
+    }
+  }
 
   {
     ObjectReader r = root.object("particles");
     cfg.particles.placement =
-        r.choice_or("placement", ParticlePlacement::regular, {{"regular", ParticlePlacement::regular}});
+        r.choice_or("placement", ParticlePlacement::regular,
+                    {{"regular", ParticlePlacement::regular}, {"random", ParticlePlacement::random}});
+    cfg.particles.seed = static_cast<unsigned long>(r.integer_or("seed", 0, 0, std::numeric_limits<long>::max()));
     const json& per_cell = r.array("per_cell");
     if (per_cell.size() != 2 || !per_cell[0].is_number_integer() || !per_cell[1].is_number_integer() ||
         per_cell[0].get<long>() < 1 || per_cell[1].get<long>() < 1 || per_cell[0].get<long>() > 64 ||
@@ -232,7 +348,10 @@ CaseConfig parse_document(const json& doc, const std::string& source) {
     r.finish();
   }
 
-  {
+  // Without an initial_state, the domain starts filled with the free stream (the wind tunnel).
+  if (!root.has("initial_state") && cfg.boundaries.has_free_stream) {
+    cfg.initial_state.background = cfg.boundaries.free_stream;
+  } else {
     ObjectReader r = root.object("initial_state");
     ObjectReader background = r.object("background");
     cfg.initial_state.background = read_gas_state(background);
@@ -323,6 +442,17 @@ CaseConfig load_case_file(const std::string& path, const std::vector<std::string
 const char* to_string(BoundaryType type) {
   switch (type) {
     case BoundaryType::slip_wall: return "slip_wall";
+    case BoundaryType::inflow: return "inflow";
+    case BoundaryType::outflow: return "outflow";
+  }
+  return "?";
+}
+
+const char* to_string(ObstacleShape shape) {
+  switch (shape) {
+    case ObstacleShape::circle: return "circle";
+    case ObstacleShape::rectangle: return "rectangle";
+    case ObstacleShape::polygon: return "polygon";
   }
   return "?";
 }

@@ -13,8 +13,14 @@ struct ConfigError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class BoundaryType { slip_wall };
-enum class ParticlePlacement { regular };
+// Per side of the domain (paper, section 4.1): a slip wall (no normal velocity), an inflow (the
+// free-stream velocity imposed on the grid; particles re-enter there) or an outflow (no velocity
+// imposed; the free-stream pressure acts on the side; particles leaving are recycled to an inflow).
+enum class BoundaryType { slip_wall, inflow, outflow };
+// Initial particles: the centres of a regular sub-grid of each cell, or uniform random positions
+// (the paper's choice for the wind-tunnel cases).
+enum class ParticlePlacement { regular, random };
+enum class ObstacleShape { circle, rectangle, polygon };
 // How P2G combines contributions to a node: the execution space's ScatterView default
 // (duplicated on host back-ends, atomic on GPUs), or one forced.
 enum class P2GStrategy { automatic, duplicated, atomic };
@@ -57,12 +63,30 @@ struct BoundaryConfig {
   BoundaryType right = BoundaryType::slip_wall;
   BoundaryType bottom = BoundaryType::slip_wall;
   BoundaryType top = BoundaryType::slip_wall;
+  // The state imposed at inflow sides, given to recycled particles, and whose pressure acts on
+  // outflow sides. Required when a side is an inflow or an outflow.
+  bool has_free_stream = false;
+  GasState free_stream;
+
+  bool any(BoundaryType type) const { return left == type || right == type || bottom == type || top == type; }
+};
+
+// A solid obstacle, resolved at load time into the shape the signed distance function uses: a
+// circle, or a closed polygon (a rectangle is one; a points file is read, transformed and checked).
+struct ObstacleConfig {
+  ObstacleShape shape = ObstacleShape::circle;
+  std::string description;  // "/obstacles/0 (circle)", for messages
+  real_t centre_x = 0, centre_y = 0, radius = 0;    // circle
+  std::vector<real_t> vertices_x, vertices_y;      // polygon and rectangle, without a repeated closing point
 };
 
 struct ParticleConfig {
   ParticlePlacement placement = ParticlePlacement::regular;
   int per_cell_x = 2;
   int per_cell_y = 2;
+  // Every random number of a run (random placement, recycling) is a function of this seed, the
+  // particle's id and the step only: runs repeat exactly, on any number of threads or ranks.
+  unsigned long seed = 0;
 };
 
 struct InitialStateConfig {
@@ -84,10 +108,12 @@ struct NumericsConfig {
 struct CaseConfig {
   std::string source;  // the file it came from, for messages
   std::string name;
+  std::string description;
   DomainConfig domain;
   PhysicsConfig physics;
   TimeConfig time;
   BoundaryConfig boundaries;
+  std::vector<ObstacleConfig> obstacles;
   ParticleConfig particles;
   InitialStateConfig initial_state;
   OutputConfig output;
@@ -102,6 +128,7 @@ CaseConfig load_case_file(const std::string& path, const std::vector<std::string
 CaseConfig parse_case(const std::string& json_text, const std::string& source);
 
 const char* to_string(BoundaryType type);
+const char* to_string(ObstacleShape shape);
 const char* to_string(P2GStrategy strategy);
 const char* to_string(ShapeFunction shape);
 

@@ -1,6 +1,10 @@
 #include "particles.hpp"
 
+#include <vector>
+
+#include "counter_random.hpp"
 #include "gas_physics.hpp"
+#include "geometry.hpp"
 
 namespace mpmflow {
 
@@ -33,11 +37,34 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
   const int ppx = config.particles.per_cell_x;
   const int ppy = config.particles.per_cell_y;
   const index_t per_cell = ppx * ppy;
-  const index_t owned_cells_x = slab.owned_cell_end_x - slab.owned_cell_begin_x;
-  const index_t owned_cells_y = slab.owned_cell_end_y - slab.owned_cell_begin_y;
-  ParticleState particles(owned_cells_x * owned_cells_y * per_cell);
+  const real_t hx = slab.geometry.spacing_x;
+  const real_t hy = slab.geometry.spacing_y;
+  const bool random = config.particles.placement == ParticlePlacement::random;
+  const HostObstacleSet obstacles = make_host_obstacle_set(config.obstacles);
 
-  // Built on the host once at start-up, then copied to the device.
+  // Positions and ids first, on the host once at start-up: the count is known only after the
+  // points inside obstacles are dropped. A cell cut by an obstacle so keeps its fluid share.
+  std::vector<real_t> xs, ys;
+  std::vector<particle_id_t> ids;
+  for (index_t cj = slab.owned_cell_begin_y; cj < slab.owned_cell_end_y; ++cj)
+    for (index_t ci = slab.owned_cell_begin_x; ci < slab.owned_cell_end_x; ++ci)
+      for (int b = 0; b < ppy; ++b)
+        for (int a = 0; a < ppx; ++a) {
+          // Global and cell-major, so ids do not depend on how the grid is split.
+          const particle_id_t id = (static_cast<particle_id_t>(cj) * slab.global_cells_x + ci) * per_cell + b * ppx + a;
+          // Regular: the centres of a ppx x ppy sub-grid of the cell. Random: uniform in the cell,
+          // from the counter-based generator at step 0 (recycling uses steps >= 1).
+          const real_t fx = random ? real_t(counter_uniform(config.particles.seed, id, 0, 0)) : (a + real_t(0.5)) / ppx;
+          const real_t fy = random ? real_t(counter_uniform(config.particles.seed, id, 0, 1)) : (b + real_t(0.5)) / ppy;
+          const real_t px = slab.domain_x_min + hx * (ci + fx);
+          const real_t py = slab.domain_y_min + hy * (cj + fy);
+          if (!obstacles.empty() && obstacles(px, py).distance <= 0) continue;
+          xs.push_back(px);
+          ys.push_back(py);
+          ids.push_back(id);
+        }
+
+  ParticleState particles(static_cast<index_t>(xs.size()));
   auto x = Kokkos::create_mirror_view(particles.position_x);
   auto y = Kokkos::create_mirror_view(particles.position_y);
   auto vx = Kokkos::create_mirror_view(particles.velocity_x);
@@ -47,30 +74,20 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
   auto e = Kokkos::create_mirror_view(particles.specific_energy);
   auto p = Kokkos::create_mirror_view(particles.pressure);
   auto id = Kokkos::create_mirror_view(particles.id);
-
-  const real_t hx = slab.geometry.spacing_x;
-  const real_t hy = slab.geometry.spacing_y;
   const real_t particle_volume = slab.cell_area() / per_cell;
   const real_t gamma = config.physics.gamma;
-  index_t k = 0;
-  for (index_t cj = slab.owned_cell_begin_y; cj < slab.owned_cell_end_y; ++cj)
-    for (index_t ci = slab.owned_cell_begin_x; ci < slab.owned_cell_end_x; ++ci)
-      for (int b = 0; b < ppy; ++b)
-        for (int a = 0; a < ppx; ++a, ++k) {
-          // Regular placement: the centres of a ppx x ppy sub-grid of the cell.
-          const real_t px = slab.domain_x_min + hx * (ci + (a + real_t(0.5)) / ppx);
-          const real_t py = slab.domain_y_min + hy * (cj + (b + real_t(0.5)) / ppy);
-          const GasState s = initial_state_at(config.initial_state, px, py);
-          x(k) = px;
-          y(k) = py;
-          vx(k) = s.velocity_x;
-          vy(k) = s.velocity_y;
-          rho(k) = s.density;
-          m(k) = s.density * particle_volume;
-          p(k) = s.pressure;
-          e(k) = perfect_gas_specific_energy(gamma, s.density, s.pressure);
-          id(k) = (static_cast<particle_id_t>(cj) * slab.global_cells_x + ci) * per_cell + b * ppx + a;
-        }
+  for (index_t k = 0; k < particles.count; ++k) {
+    const GasState s = initial_state_at(config.initial_state, xs[k], ys[k]);
+    x(k) = xs[k];
+    y(k) = ys[k];
+    vx(k) = s.velocity_x;
+    vy(k) = s.velocity_y;
+    rho(k) = s.density;
+    m(k) = s.density * particle_volume;
+    p(k) = s.pressure;
+    e(k) = perfect_gas_specific_energy(gamma, s.density, s.pressure);
+    id(k) = ids[k];
+  }
 
   Kokkos::deep_copy(particles.position_x, x);
   Kokkos::deep_copy(particles.position_y, y);

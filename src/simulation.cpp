@@ -138,8 +138,22 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   while (t < end_time && (max_steps == 0 || solver.step_count() < max_steps)) {
     const double target = snapshots > 0 ? snapshot_time(next_snapshot) : end_time;
     const double t_before = t;
-    t = solver.step_towards(t, target);
-    last_state_written = false;
+    try {
+      t = solver.step_towards(t, target);
+      last_state_written = false;
+      if (snapshots > 0 && t == target) solver.check_state();
+    } catch (const InvalidStateError& e) {
+      // The outputs so far hold the last good state; the failed state is written after them, so
+      // that it can be inspected (the bad particle shows where it happened), and the run stops.
+      std::ostringstream msg;
+      msg << e.what() << " (t = " << t << ")";
+      if (snapshots > 0) {
+        msg << "; the last good state is output " << next_snapshot - 1 << ", the failed state output "
+            << next_snapshot << " in " << config.output.directory;
+        write_output(t, diagnostics.compute(solver.particles()));
+      }
+      throw std::runtime_error(msg.str());
+    }
 
     if (snapshots > 0 && t == target) {
       const ConservationTotals totals = diagnostics.compute(solver.particles());

@@ -1,5 +1,7 @@
 #include "solver.hpp"
 
+#include <limits>
+#include <sstream>
 #include <type_traits>
 
 #include "boundary_conditions.hpp"
@@ -175,8 +177,7 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
   }
   {  // 4. boundary conditions on momentum and force
     auto t = timers.scope("boundary_conditions");
-    apply_slip_walls(slab, cfg.boundaries, state, GridFields::momentum_x, GridFields::momentum_y);
-    apply_slip_walls(slab, cfg.boundaries, state, GridFields::force_x, GridFields::force_y);
+    solver.grid_boundaries_.apply_to_momentum_and_force(state);
   }
   {  // 5. momentum equation on the grid: (mv)' = mv + dt f
     auto t = timers.scope("grid_momentum_update");
@@ -203,7 +204,7 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
   }
   {  // 9. boundary conditions on the remapped momentum
     auto t = timers.scope("boundary_conditions");
-    apply_slip_walls(slab, cfg.boundaries, remap, GridFields::remap_momentum_x, GridFields::remap_momentum_y);
+    solver.grid_boundaries_.apply_to_momentum(remap, GridFields::remap_momentum_x, state);
   }
   {  // 10. G2PD velocity gradient; density, energy, pressure update
     auto t = timers.scope("g2pd_particle_update");
@@ -214,14 +215,14 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
                               cfg.physics.gamma, slab.cell_size(), cfg.physics.viscosity_quadratic,
                               cfg.physics.viscosity_linear});
   }
-  {  // 11. the postponed particle move with V-bar
+  {  // 11. the postponed particle move with V-bar; walls, recycling and obstacles on the particles
     auto t = timers.scope("particle_move");
-    const auto x = pt.position_x, y = pt.position_y, vbx = pt.grid_velocity_x, vby = pt.grid_velocity_y;
+    solver.particle_boundaries_.prepare_step(dt, solver.step_count_ + 1);
+    const ParticleBoundaries boundaries = solver.particle_boundaries_;
+    const ParticleState particles = pt;
     Kokkos::parallel_for(
-        "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, n), KOKKOS_LAMBDA(const index_t p) {
-          x(p) += dt * vbx(p);
-          y(p) += dt * vby(p);
-        });
+        "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, n),
+        KOKKOS_LAMBDA(const index_t p) { boundaries.move(p, dt, particles); });
   }
   {  // cell map update (step x)
     auto t = timers.scope("cell_map");
@@ -261,7 +262,13 @@ std::unique_ptr<Solver::Stepper> Solver::make_stepper() const {
 }
 
 Solver::Solver(const CaseConfig& config, const GridSlab& slab, ParticleState particles)
-    : config_(config), slab_(slab), particles_(std::move(particles)), grid_fields_(slab.geometry) {
+    : config_(config),
+      slab_(slab),
+      particles_(std::move(particles)),
+      grid_fields_(slab.geometry),
+      obstacle_grid_(make_obstacle_grid(config.obstacles, slab)),
+      grid_boundaries_(config, slab, obstacle_grid_),
+      particle_boundaries_(config, slab, obstacle_grid_) {
   if (use_duplicated(config.numerics.p2g))
     stepper_ = make_stepper<Kokkos::Experimental::ScatterDuplicated>();
   else
@@ -290,12 +297,44 @@ real_t Solver::stable_time_step() {
   const auto vx = particles_.velocity_x, vy = particles_.velocity_y, p = particles_.pressure,
              rho = particles_.density;
   const real_t gamma = config_.physics.gamma;
+  constexpr real_t invalid = std::numeric_limits<real_t>::max();  // no valid signal speed is this large
   const real_t max_speed = max_over_particles(
-      "max_signal_speed", particles_.count,
-      KOKKOS_LAMBDA(const index_t k) { return signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k))); });
+      "max_signal_speed", particles_.count, KOKKOS_LAMBDA(const index_t k) {
+        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k)));
+        // Written so that NaN fails every test: a NaN compares false.
+        const bool valid = rho(k) > 0 && p(k) == p(k) && speed < invalid;
+        return valid ? speed : invalid;
+      });
+  if (!(max_speed < invalid)) report_invalid_particle();
   const real_t h = slab_.cell_size();
   // A gas at rest with zero pressure has no signal speed; any step is then stable.
   return max_speed > 0 ? config_.time.cfl * h / max_speed : config_.time.end_time;
+}
+
+void Solver::report_invalid_particle() const {
+  const auto x = particles_.position_x, y = particles_.position_y, vx = particles_.velocity_x,
+             vy = particles_.velocity_y, p = particles_.pressure, rho = particles_.density;
+  index_t first = particles_.count;
+  Kokkos::parallel_reduce(
+      "find_invalid_particle", Kokkos::RangePolicy<ExecutionSpace>(0, particles_.count),
+      KOKKOS_LAMBDA(const index_t k, index_t& smallest) {
+        const bool valid = rho(k) > 0 && p(k) == p(k) && vx(k) == vx(k) && vy(k) == vy(k) &&
+                           x(k) == x(k) && y(k) == y(k);
+        if (!valid && k < smallest) smallest = k;
+      },
+      Kokkos::Min<index_t>(first));
+  auto value_at = [&](const auto& view) {
+    auto one = Kokkos::subview(view, std::make_pair(first, first + 1));
+    auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), one);
+    return host(0);
+  };
+  const particle_id_t id = value_at(particles_.id);
+  const real_t px = value_at(x), py = value_at(y);
+  std::ostringstream msg;
+  msg << "invalid state after step " << step_count_ << ": particle " << id << " at (" << px << ", " << py
+      << ") has density " << value_at(rho) << ", pressure " << value_at(p) << ", velocity (" << value_at(vx)
+      << ", " << value_at(vy) << ")";
+  throw InvalidStateError(msg.str(), step_count_, id, px, py);
 }
 
 void Solver::advance(real_t dt) {

@@ -1,13 +1,25 @@
 #pragma once
 // One explicit MPM step (the paper's Algorithm 1) over a grid slab and its particles.
 #include <memory>
+#include <stdexcept>
 
+#include "boundary_conditions.hpp"
 #include "case_config.hpp"
+#include "geometry.hpp"
 #include "grid.hpp"
 #include "particles.hpp"
 #include "phase_timers.hpp"
 
 namespace mpmflow {
+
+// A particle with a NaN or non-positive density, or a NaN pressure or velocity: the run cannot go on.
+struct InvalidStateError : std::runtime_error {
+  InvalidStateError(const std::string& message, long step, particle_id_t id, real_t x, real_t y)
+      : std::runtime_error(message), step(step), particle_id(id), position_x(x), position_y(y) {}
+  long step;
+  particle_id_t particle_id;
+  real_t position_x, position_y;
+};
 
 class Solver {
  public:
@@ -17,7 +29,11 @@ class Solver {
   Solver& operator=(const Solver&) = delete;
 
   // dt = cfl h / max_p(|v_p| + c_p), h the smaller cell side (paper eq. 29 with cfl = 0.5).
+  // The same pass checks the state: throws InvalidStateError, naming the first bad particle, if
+  // any particle has a NaN or non-positive density or a NaN pressure or velocity.
   real_t stable_time_step();
+  // The check alone (before an output, so that a bad state is never written as a good one).
+  void check_state() { (void)stable_time_step(); }
 
   // Advances particles and grid by dt: steps 2-12 of Algorithm 1.
   void advance(real_t dt);
@@ -36,6 +52,7 @@ class Solver {
   ParticleState& particles() { return particles_; }
   const GridFields& grid_fields() const { return grid_fields_; }
   const GridSlab& slab() const { return slab_; }
+  const ObstacleGrid& obstacle_grid() const { return obstacle_grid_; }
   PhaseTimers& timers() { return timers_; }
   // The P2G ScatterView mode in use, after resolving "automatic" for this execution space.
   P2GStrategy p2g_strategy() const;
@@ -64,12 +81,16 @@ class Solver {
  private:
   template <class Duplication>
   std::unique_ptr<Stepper> make_stepper() const;
+  [[noreturn]] void report_invalid_particle() const;
 
   CaseConfig config_;
   GridSlab slab_;
   ParticleState particles_;
   GridFields grid_fields_;
   PhaseTimers timers_;
+  ObstacleGrid obstacle_grid_;
+  GridBoundaryConditions grid_boundaries_;
+  ParticleBoundaries particle_boundaries_;
   real_t node_mass_threshold_ = 0;
   long step_count_ = 0;
   std::unique_ptr<Stepper> stepper_;

@@ -1,0 +1,218 @@
+#include "geometry.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace mpmflow {
+namespace {
+
+double cross(const Point& o, const Point& a, const Point& b) {
+  return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+}
+
+// Whether c, known to be collinear with segment ab, lies within its bounding box.
+bool on_segment(const Point& a, const Point& b, const Point& c) {
+  return std::min(a.x, b.x) <= c.x && c.x <= std::max(a.x, b.x) && std::min(a.y, b.y) <= c.y &&
+         c.y <= std::max(a.y, b.y);
+}
+
+// Whether the closed segments ab and cd share a point.
+bool segments_meet(const Point& a, const Point& b, const Point& c, const Point& d) {
+  const double d1 = cross(c, d, a), d2 = cross(c, d, b), d3 = cross(a, b, c), d4 = cross(a, b, d);
+  if (((d1 > 0 && d2 < 0) || (d1 < 0 && d2 > 0)) && ((d3 > 0 && d4 < 0) || (d3 < 0 && d4 > 0))) return true;
+  return (d1 == 0 && on_segment(c, d, a)) || (d2 == 0 && on_segment(c, d, b)) ||
+         (d3 == 0 && on_segment(a, b, c)) || (d4 == 0 && on_segment(a, b, d));
+}
+
+std::string describe_edge(const Polygon& polygon, size_t i) {
+  const Point& a = polygon[i];
+  const Point& b = polygon[(i + 1) % polygon.size()];
+  std::ostringstream out;
+  out << "edge " << i << " (" << a.x << ", " << a.y << ")-(" << b.x << ", " << b.y << ")";
+  return out.str();
+}
+
+double signed_area(const Polygon& polygon) {
+  double area = 0;
+  for (size_t i = 0; i < polygon.size(); ++i) {
+    const Point& a = polygon[i];
+    const Point& b = polygon[(i + 1) % polygon.size()];
+    area += a.x * b.y - b.x * a.y;
+  }
+  return area / 2;
+}
+
+}  // namespace
+
+Polygon read_points_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open the points file '" + path + "'");
+  Polygon polygon;
+  std::string line;
+  int line_number = 0;
+  bool first_content_line = true;
+  while (std::getline(in, line)) {
+    ++line_number;
+    const size_t start = line.find_first_not_of(" \t\r");
+    if (start == std::string::npos || line[start] == '#') continue;
+    std::istringstream fields(line);
+    Point p;
+    std::string rest;
+    const bool two_numbers = static_cast<bool>(fields >> p.x >> p.y) && !(fields >> rest);
+    if (!two_numbers) {
+      if (first_content_line) {  // the Selig format's title line
+        first_content_line = false;
+        continue;
+      }
+      throw std::runtime_error("'" + path + "' line " + std::to_string(line_number) +
+                               ": expected two numbers \"x y\"; got \"" + line + "\"");
+    }
+    first_content_line = false;
+    if (!std::isfinite(p.x) || !std::isfinite(p.y))
+      throw std::runtime_error("'" + path + "' line " + std::to_string(line_number) + ": expected finite numbers");
+    if (!polygon.empty() && polygon.back().x == p.x && polygon.back().y == p.y) continue;
+    polygon.push_back(p);
+  }
+  if (polygon.size() > 1 && polygon.front().x == polygon.back().x && polygon.front().y == polygon.back().y)
+    polygon.pop_back();
+  return polygon;
+}
+
+Polygon transformed(const Polygon& polygon, const PolygonTransform& transform) {
+  const double angle = transform.rotation_degrees * 3.14159265358979323846 / 180;
+  const double c = std::cos(angle), s = std::sin(angle);
+  Polygon out;
+  out.reserve(polygon.size());
+  for (const Point& p : polygon) {
+    const double x = transform.scale * p.x, y = transform.scale * p.y;
+    out.push_back({c * x - s * y + transform.translation_x, s * x + c * y + transform.translation_y});
+  }
+  return out;
+}
+
+std::string describe_self_intersection(const Polygon& polygon) {
+  const size_t n = polygon.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Point& a = polygon[i];
+    const Point& b = polygon[(i + 1) % n];
+    // The next edge shares vertex b: it may only meet this one there, so it must not fold back.
+    const Point& c = polygon[(i + 2) % n];
+    if (cross(b, a, c) == 0 && (a.x - b.x) * (c.x - b.x) + (a.y - b.y) * (c.y - b.y) > 0)
+      return describe_edge(polygon, i) + " folds back onto " + describe_edge(polygon, (i + 1) % n);
+    for (size_t j = i + 2; j < n; ++j) {
+      if (i == 0 && j == n - 1) continue;  // adjacent through the closing vertex
+      if (segments_meet(a, b, polygon[j], polygon[(j + 1) % n]))
+        return describe_edge(polygon, i) + " meets " + describe_edge(polygon, j);
+    }
+  }
+  return "";
+}
+
+HostObstacleSet make_host_obstacle_set(const std::vector<ObstacleConfig>& obstacles) {
+  HostObstacleSet set;
+  index_t num_circles = 0, num_polygons = 0, num_edges = 0;
+  for (const ObstacleConfig& o : obstacles) {
+    if (o.shape == ObstacleShape::circle) ++num_circles;
+    else {
+      ++num_polygons;
+      num_edges += static_cast<index_t>(o.vertices_x.size());
+    }
+  }
+  set.circles = HostObstacleSet::RealColumns("obstacle_circles", num_circles, 3);
+  set.edges = HostObstacleSet::RealColumns("obstacle_edges", num_edges, 4);
+  set.polygon_edges = HostObstacleSet::Offsets("obstacle_polygon_edges", num_polygons + 1);
+  index_t edge = 0;
+  for (const ObstacleConfig& o : obstacles) {
+    if (o.shape == ObstacleShape::circle) {
+      set.circles(set.num_circles, 0) = o.centre_x;
+      set.circles(set.num_circles, 1) = o.centre_y;
+      set.circles(set.num_circles, 2) = o.radius;
+      ++set.num_circles;
+      continue;
+    }
+    Polygon polygon;
+    for (size_t v = 0; v < o.vertices_x.size(); ++v) polygon.push_back({o.vertices_x[v], o.vertices_y[v]});
+    // Counter-clockwise, so that an edge's right-hand normal points out of the obstacle.
+    if (signed_area(polygon) < 0) std::reverse(polygon.begin(), polygon.end());
+    set.polygon_edges(set.num_polygons) = edge;
+    for (size_t v = 0; v < polygon.size(); ++v, ++edge) {
+      const Point& a = polygon[v];
+      const Point& b = polygon[(v + 1) % polygon.size()];
+      set.edges(edge, 0) = a.x;
+      set.edges(edge, 1) = a.y;
+      set.edges(edge, 2) = b.x;
+      set.edges(edge, 3) = b.y;
+    }
+    ++set.num_polygons;
+  }
+  set.polygon_edges(set.num_polygons) = edge;
+  return set;
+}
+
+DeviceObstacleSet copy_to_device(const HostObstacleSet& host) {
+  DeviceObstacleSet device;
+  device.circles = Kokkos::create_mirror_view_and_copy(MemorySpace(), host.circles);
+  device.edges = Kokkos::create_mirror_view_and_copy(MemorySpace(), host.edges);
+  device.polygon_edges = Kokkos::create_mirror_view_and_copy(MemorySpace(), host.polygon_edges);
+  device.num_circles = host.num_circles;
+  device.num_polygons = host.num_polygons;
+  return device;
+}
+
+ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, const GridSlab& slab) {
+  ObstacleGrid grid;
+  const HostObstacleSet host = make_host_obstacle_set(obstacles);
+  grid.obstacles = copy_to_device(host);
+  const GridGeometry& geo = slab.geometry;
+  grid.cell_near_obstacle = IndexView("cell_near_obstacle", geo.num_cells());
+  if (host.empty()) {
+    grid.obstacle_nodes = IndexView("obstacle_nodes", 0);
+    grid.obstacle_normals = NodeFieldsView("obstacle_normals", 0, 2);
+    return grid;
+  }
+  // Evaluated once on the host at start-up (the obstacles are at rest).
+  std::vector<real_t> node_distance(geo.num_nodes());
+  std::vector<index_t> nodes;
+  std::vector<real_t> normals_x, normals_y;
+  for (index_t j = 0; j < geo.nodes_y; ++j)
+    for (index_t i = 0; i < geo.nodes_x; ++i) {
+      const SignedDistance sd = host(geo.node_x(i), geo.node_y(j));
+      const index_t node = geo.node_index(i, j);
+      node_distance[node] = sd.distance;
+      if (sd.distance <= 0) {
+        nodes.push_back(node);
+        normals_x.push_back(sd.normal_x);
+        normals_y.push_back(sd.normal_y);
+      }
+    }
+  grid.obstacle_nodes = IndexView("obstacle_nodes", nodes.size());
+  grid.obstacle_normals = NodeFieldsView("obstacle_normals", nodes.size(), 2);
+  auto nodes_host = Kokkos::create_mirror_view(grid.obstacle_nodes);
+  auto normals_host = Kokkos::create_mirror_view(grid.obstacle_normals);
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    nodes_host(k) = nodes[k];
+    normals_host(k, 0) = normals_x[k];
+    normals_host(k, 1) = normals_y[k];
+  }
+  Kokkos::deep_copy(grid.obstacle_nodes, nodes_host);
+  Kokkos::deep_copy(grid.obstacle_normals, normals_host);
+
+  // The signed distance is 1-Lipschitz, so inside a cell it differs from a corner value by at most
+  // the cell diagonal: a cell whose corners are all farther than that holds no obstacle point.
+  const real_t diagonal = std::sqrt(geo.spacing_x * geo.spacing_x + geo.spacing_y * geo.spacing_y);
+  auto near_host = Kokkos::create_mirror_view(grid.cell_near_obstacle);
+  for (index_t cj = 0; cj < geo.cells_y(); ++cj)
+    for (index_t ci = 0; ci < geo.cells_x(); ++ci) {
+      const real_t closest = std::min(std::min(node_distance[geo.node_index(ci, cj)], node_distance[geo.node_index(ci + 1, cj)]),
+                                      std::min(node_distance[geo.node_index(ci, cj + 1)],
+                                               node_distance[geo.node_index(ci + 1, cj + 1)]));
+      near_host(ci + geo.cells_x() * cj) = closest < diagonal ? 1 : 0;
+    }
+  Kokkos::deep_copy(grid.cell_near_obstacle, near_host);
+  return grid;
+}
+
+}  // namespace mpmflow

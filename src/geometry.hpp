@@ -1,0 +1,127 @@
+#pragma once
+// Solid obstacles by signed distance (paper eqs. 23-24): host-side input (points files, polygon
+// transforms and checks) and a device-side signed distance function over a set of circles and
+// closed polygons, with the grid data the boundary conditions and the particle move need.
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "case_config.hpp"
+#include "grid.hpp"
+
+namespace mpmflow {
+
+// ---- Host-side polygon input ---------------------------------------------------------------------
+
+struct Point {
+  double x = 0, y = 0;
+};
+using Polygon = std::vector<Point>;
+
+// Scale about the origin of the points file, then rotate counter-clockwise about it, then
+// translate. An aerofoil at angle of attack alpha (flow along +x) is rotation_degrees = -alpha.
+struct PolygonTransform {
+  double scale = 1;
+  double rotation_degrees = 0;
+  double translation_x = 0, translation_y = 0;
+};
+
+// Reads a closed polygon from a points file: one "x y" pair per line; blank lines and lines
+// starting with '#' are skipped; a first line that is not two numbers is a title (the Selig aerofoil
+// format). A last point repeating the first, and repeated consecutive points, are dropped.
+// Throws std::runtime_error naming the file and line.
+Polygon read_points_file(const std::string& path);
+
+Polygon transformed(const Polygon& polygon, const PolygonTransform& transform);
+
+// Empty when the polygon is simple; otherwise names two edges that cross or touch.
+std::string describe_self_intersection(const Polygon& polygon);
+
+// ---- Device-side signed distance -----------------------------------------------------------------
+
+struct SignedDistance {
+  real_t distance;            // negative inside an obstacle (eq. 23)
+  real_t normal_x, normal_y;  // unit gradient of the distance: the outward normal (eq. 24)
+};
+
+// The union of the case's obstacles. Distance and normal are those of the nearest obstacle.
+template <class MemSpace>
+struct ObstacleSet {
+  using RealColumns = Kokkos::View<real_t**, Kokkos::LayoutLeft, MemSpace>;
+  using Offsets = Kokkos::View<index_t*, Kokkos::LayoutLeft, MemSpace>;
+  RealColumns circles;      // (circle, {centre x, centre y, radius})
+  RealColumns edges;        // (edge, {x0, y0, x1, y1}), counter-clockwise around each polygon
+  Offsets polygon_edges;    // polygon k owns edges [polygon_edges(k), polygon_edges(k + 1))
+  index_t num_circles = 0;
+  index_t num_polygons = 0;
+
+  bool empty() const { return num_circles == 0 && num_polygons == 0; }
+
+  KOKKOS_INLINE_FUNCTION SignedDistance operator()(real_t x, real_t y) const {
+    SignedDistance nearest{real_t(1e30), 1, 0};
+    for (index_t c = 0; c < num_circles; ++c) {
+      const real_t dx = x - circles(c, 0), dy = y - circles(c, 1);
+      const real_t r = std::sqrt(dx * dx + dy * dy);
+      const real_t d = r - circles(c, 2);
+      if (d < nearest.distance) nearest = r > 0 ? SignedDistance{d, dx / r, dy / r} : SignedDistance{d, 1, 0};
+    }
+    for (index_t k = 0; k < num_polygons; ++k) {
+      const SignedDistance d = polygon_distance(k, x, y);
+      if (d.distance < nearest.distance) nearest = d;
+    }
+    return nearest;
+  }
+
+  KOKKOS_INLINE_FUNCTION SignedDistance polygon_distance(index_t k, real_t x, real_t y) const {
+    real_t best_squared = real_t(1e30), best_dx = 0, best_dy = 0;
+    index_t best_edge = polygon_edges(k);
+    bool inside = false;
+    for (index_t e = polygon_edges(k); e < polygon_edges(k + 1); ++e) {
+      const real_t x0 = edges(e, 0), y0 = edges(e, 1), x1 = edges(e, 2), y1 = edges(e, 3);
+      // Nearest point of the edge.
+      const real_t ex = x1 - x0, ey = y1 - y0;
+      real_t s = ((x - x0) * ex + (y - y0) * ey) / (ex * ex + ey * ey);
+      s = s < 0 ? real_t(0) : (s > 1 ? real_t(1) : s);
+      const real_t dx = x - (x0 + s * ex), dy = y - (y0 + s * ey);
+      const real_t squared = dx * dx + dy * dy;
+      if (squared < best_squared) {
+        best_squared = squared;
+        best_dx = dx;
+        best_dy = dy;
+        best_edge = e;
+      }
+      // Even-odd rule: count the edges a ray towards +x crosses.
+      if ((y0 > y) != (y1 > y) && x < x0 + (y - y0) * ex / ey) inside = !inside;
+    }
+    const real_t d = std::sqrt(best_squared);
+    const real_t sign = inside ? real_t(-1) : real_t(1);
+    if (d > 0) return {sign * d, sign * best_dx / d, sign * best_dy / d};
+    // On the boundary: the edge's outward normal (edges run counter-clockwise).
+    const real_t ex = edges(best_edge, 2) - edges(best_edge, 0), ey = edges(best_edge, 3) - edges(best_edge, 1);
+    const real_t length = std::sqrt(ex * ex + ey * ey);
+    return {0, ey / length, -ex / length};
+  }
+};
+
+using HostObstacleSet = ObstacleSet<Kokkos::HostSpace>;
+using DeviceObstacleSet = ObstacleSet<MemorySpace>;
+
+HostObstacleSet make_host_obstacle_set(const std::vector<ObstacleConfig>& obstacles);
+DeviceObstacleSet copy_to_device(const HostObstacleSet& host);
+
+// What the grid needs of the obstacles, computed once at start: the nodes inside an obstacle
+// (signed distance <= 0) with their outward normals, where eqs. 21-22 remove the inward momentum
+// and force; and a flag per cell that an obstacle may reach into it, so that only particles in
+// flagged cells evaluate the exact distance after their move.
+struct ObstacleGrid {
+  DeviceObstacleSet obstacles;
+  IndexView obstacle_nodes;
+  NodeFieldsView obstacle_normals;  // (k, {n_x, n_y}) of obstacle_nodes(k)
+  IndexView cell_near_obstacle;     // 1 where a corner of the cell lies within a cell diagonal of an obstacle
+
+  index_t num_obstacle_nodes() const { return static_cast<index_t>(obstacle_nodes.extent(0)); }
+};
+
+ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, const GridSlab& slab);
+
+}  // namespace mpmflow

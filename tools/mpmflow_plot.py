@@ -1,0 +1,298 @@
+#!/usr/bin/python3
+"""Pictures and measurements from mpmflow output (HDF5 snapshots).
+
+Runs under Debian's python3 (/usr/bin/python3), which has python3-h5py, python3-matplotlib and
+python3-numpy (scripts/setup.sh installs them).
+
+  mpmflow_plot.py fields OUTPUT_DIR [--step N] [--out DIR] [--gamma G]
+      PNGs of pressure, density, Mach number and a numerical schlieren (log of the density-gradient
+      magnitude) of one output step (default: the last).
+  mpmflow_plot.py sod OUTPUT_DIR --case CASE.json [--mpmflow BIN] [--out PNG]
+      The last output of a Riemann-problem case (Sod) against the exact solution: particles, the
+      grid interpolation and the exact solution (computed by `mpmflow riemann`).
+  mpmflow_plot.py bow-shock OUTPUT_DIR [--centre X Y] [--radius R] [--mach M] [--gamma G]
+                  [--pressure P] [--last K] [--max-standoff-error F] [--max-pitot-error F]
+      The bow-shock stand-off distance and the nose pressure on the symmetry line of a cylinder in
+      supersonic flow, against Billig's correlation and the Rayleigh pitot formula; with the
+      --max-*-error options, exits 1 when an error exceeds the given fraction.
+
+Fields are binned from the particles onto the cells of the output grid, mass-weighted: a particle
+carries the state, the grid only its mass and momentum.
+"""
+import argparse
+import glob
+import json
+import math
+import os
+import subprocess
+import sys
+
+import h5py
+import numpy as np
+
+
+def snapshot_files(output_dir):
+    files = sorted(f for f in glob.glob(os.path.join(output_dir, "*.h5")))
+    if not files:
+        sys.exit(f"mpmflow_plot: error: no HDF5 snapshots (*.h5) in {output_dir}")
+    return files
+
+
+class Snapshot:
+    def __init__(self, path):
+        self.path = path
+        with h5py.File(path, "r") as f:
+            self.time = float(f.attrs["time"])
+            self.case = f.attrs["case"].decode() if isinstance(f.attrs["case"], bytes) else str(f.attrs["case"])
+            position = f["particles/position"][...]
+            self.x, self.y = position[:, 0], position[:, 1]
+            self.particles = {name: f["particles"][name][...] for name in f["particles"] if name != "position"}
+            grid = f["grid"]
+            self.grid = {name: grid[name][...] for name in grid}
+            self.origin = (float(grid.attrs["origin_x"]), float(grid.attrs["origin_y"]))
+            self.spacing = (float(grid.attrs["spacing_x"]), float(grid.attrs["spacing_y"]))
+        nodes_y, nodes_x = self.grid["node_mass"].shape
+        self.cells = (nodes_x - 1, nodes_y - 1)
+
+    def binned(self, values):
+        """Mass-weighted mean of a particle quantity per grid cell (NaN in cells without particles)."""
+        cx = np.clip(((self.x - self.origin[0]) / self.spacing[0]).astype(int), 0, self.cells[0] - 1)
+        cy = np.clip(((self.y - self.origin[1]) / self.spacing[1]).astype(int), 0, self.cells[1] - 1)
+        index = cy * self.cells[0] + cx
+        mass = self.particles["mass"]
+        total = np.bincount(index, weights=mass, minlength=self.cells[0] * self.cells[1])
+        weighted = np.bincount(index, weights=mass * values, minlength=self.cells[0] * self.cells[1])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = np.where(total > 0, weighted / total, np.nan)
+        return mean.reshape(self.cells[1], self.cells[0])
+
+    def extent(self):
+        return (self.origin[0], self.origin[0] + self.cells[0] * self.spacing[0],
+                self.origin[1], self.origin[1] + self.cells[1] * self.spacing[1])
+
+
+def plot_fields(args):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = snapshot_files(args.output_dir)
+    path = files[-1] if args.step is None else os.path.join(args.output_dir, f"{os.path.basename(files[0])[:-10]}_{args.step:06d}.h5")
+    if not os.path.exists(path):
+        sys.exit(f"mpmflow_plot: error: {path} does not exist")
+    s = Snapshot(path)
+    p = s.particles
+    density = s.binned(p["density"])
+    pressure = s.binned(p["pressure"])
+    sound = np.sqrt(args.gamma * np.maximum(p["pressure"], 0) / p["density"])
+    mach = s.binned(np.hypot(p["velocity_x"], p["velocity_y"]) / sound)
+    # Numerical schlieren as in the 2023 paper: log of the density-gradient magnitude, from the grid's
+    # nodal density (the P2G of mass spreads each particle over its stencil, which smooths the
+    # particle-count noise that a per-cell bin shows), sampled at the cell centres.
+    node_density = s.grid["node_density"]
+    gy, gx = np.gradient(node_density, s.spacing[1], s.spacing[0])
+    magnitude = np.hypot(gx, gy)
+    magnitude = 0.25 * (magnitude[:-1, :-1] + magnitude[1:, :-1] + magnitude[:-1, 1:] + magnitude[1:, 1:])
+    schlieren = np.log10(magnitude + 1e-3)
+    schlieren[np.isnan(density)] = np.nan
+
+    out_dir = args.out or args.output_dir
+    os.makedirs(out_dir, exist_ok=True)
+    stem = os.path.join(out_dir, os.path.basename(path)[:-3])
+    width = 8.0
+    height = width * (s.extent()[3] - s.extent()[2]) / (s.extent()[1] - s.extent()[0]) + 1.0
+    written = []
+    for name, field, cmap, label in [
+        ("pressure", pressure, "viridis", "pressure"),
+        ("density", density, "viridis", "density"),
+        ("mach", mach, "plasma", "Mach number"),
+        ("schlieren", schlieren, "Greys", "log10 |grad density|"),
+    ]:
+        fig, ax = plt.subplots(figsize=(width, height))
+        image = ax.imshow(np.ma.masked_invalid(field), origin="lower", extent=s.extent(), cmap=cmap,
+                          interpolation="nearest")
+        ax.set_title(f"{s.case}: {label}, t = {s.time:g}")
+        ax.set_xlabel("x")
+        ax.set_ylabel("y")
+        fig.colorbar(image, ax=ax, shrink=0.8)
+        fig.tight_layout()
+        target = f"{stem}_{name}.png"
+        fig.savefig(target + ".tmp.png", dpi=110)
+        os.replace(target + ".tmp.png", target)  # never a half-written picture
+        plt.close(fig)
+        written.append(target)
+    print("\n".join(written))
+
+
+def find_mpmflow(explicit):
+    if explicit:
+        return explicit
+    here = os.path.dirname(os.path.abspath(__file__))
+    for preset in ("openmp", "serial", "debug"):
+        candidate = os.path.join(here, "..", "build", preset, "bin", "mpmflow")
+        if os.path.exists(candidate):
+            return candidate
+    sys.exit("mpmflow_plot: error: no mpmflow binary found under build/*/bin; pass --mpmflow BIN")
+
+
+def plot_sod(args):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    with open(args.case) as f:
+        case = json.load(f)
+    try:
+        right = case["initial_state"]["background"]
+        left_region = case["initial_state"]["regions"][0]
+    except (KeyError, IndexError):
+        sys.exit(f"mpmflow_plot: error: {args.case}: /initial_state: expected a background (the right state) "
+                 "and one region (the left state)")
+    x0 = left_region["x"][1]
+    gamma = case.get("physics", {}).get("gamma", 1.4)
+    s = Snapshot(snapshot_files(args.output_dir)[-1])
+    x_lo, x_hi = case["domain"]["x"]
+
+    def state(d):
+        return f"{d['density']},{d.get('velocity', [0, 0])[0]},{d['pressure']}"
+
+    command = [find_mpmflow(args.mpmflow), "riemann", "--left", state(left_region), "--right", state(right),
+               "--x0", str(x0), "--time", str(s.time), "--gamma", str(gamma), "--x", f"{x_lo},{x_hi}"]
+    text = subprocess.run(command, check=True, capture_output=True, text=True).stdout
+    lines = text[text.index("x,density"):].strip().splitlines()
+    exact = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+
+    nodes_x = s.grid["node_mass"].shape[1]
+    grid_x = s.origin[0] + s.spacing[0] * np.arange(nodes_x)
+    p = s.particles
+    fig, axes = plt.subplots(3, 1, figsize=(7, 9), sharex=True)
+    panels = [("density", p["density"], s.grid["node_density"].mean(axis=0), 1),
+              ("velocity", p["velocity_x"], s.grid["node_velocity_x"].mean(axis=0), 2),
+              ("pressure", p["pressure"], None, 3)]
+    for ax, (name, particle_values, grid_values, column) in zip(axes, panels):
+        ax.plot(exact[:, 0], exact[:, column], "k-", lw=1.2, label="exact")
+        if grid_values is not None:
+            ax.plot(grid_x, grid_values, "-", color="tab:orange", lw=1, label="grid nodes")
+        ax.plot(s.x, particle_values, ".", ms=2.5, color="tab:blue", label="particles")
+        ax.set_ylabel(name)
+    axes[0].legend(loc="upper right")
+    axes[0].set_title(f"{s.case}: t = {s.time:g}")
+    axes[-1].set_xlabel("x")
+    fig.tight_layout()
+    target = args.out or os.path.join(args.output_dir, f"{s.case}_comparison.png")
+    fig.savefig(target + ".tmp.png", dpi=110)
+    os.replace(target + ".tmp.png", target)
+    print(target)
+
+
+def billig_standoff(mach, radius):
+    """Billig (1967): shock stand-off of a cylinder, Delta / R = 0.386 exp(4.67 / M^2)."""
+    return radius * 0.386 * math.exp(4.67 / mach**2)
+
+
+def rayleigh_pitot(mach, gamma, pressure):
+    """Stagnation pressure behind a normal shock (Rayleigh pitot formula)."""
+    g = gamma
+    m2 = mach * mach
+    return pressure * ((g + 1) ** 2 * m2 / (4 * g * m2 - 2 * (g - 1))) ** (g / (g - 1)) * (1 - g + 2 * g * m2) / (g + 1)
+
+
+def measure_bow_shock(s, centre, radius, mach, gamma, pressure):
+    """Shock position and nose pressure on the line y = centre_y, from particles near it."""
+    h = max(s.spacing)
+    nose = centre[0] - radius
+    near = (np.abs(s.y - centre[1]) < 1.5 * h) & (s.x < nose)
+    x, p = s.x[near], s.particles["pressure"][near]
+    width = h / 2
+    edges = np.arange(s.origin[0], nose + width, width)
+    which = np.digitize(x, edges) - 1
+    medians = np.array([np.median(p[which == k]) if np.any(which == k) else np.nan for k in range(len(edges) - 1)])
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    # The shock: where the pressure first passes halfway between the free stream and the pressure
+    # behind a normal shock, coming from upstream (linear interpolation between bins).
+    g, m2 = gamma, mach * mach
+    behind = pressure * (1 + 2 * g / (g + 1) * (m2 - 1))
+    level = 0.5 * (pressure + behind)
+    above = np.where(medians > level)[0]
+    if len(above) == 0:
+        return None
+    k = above[0]
+    if k > 0 and not np.isnan(medians[k - 1]):
+        f = (level - medians[k - 1]) / (medians[k] - medians[k - 1])
+        shock_x = centres[k - 1] + f * (centres[k] - centres[k - 1])
+    else:
+        shock_x = centres[k]
+    # The nose pressure: the largest bin median within two cells of the surface.
+    close = (centres > nose - 2 * h) & ~np.isnan(medians)
+    nose_pressure = float(np.max(medians[close])) if np.any(close) else float("nan")
+    return shock_x, nose - shock_x, nose_pressure
+
+
+def bow_shock(args):
+    files = snapshot_files(args.output_dir)[-args.last:]
+    expected_standoff = billig_standoff(args.mach, args.radius)
+    expected_pitot = rayleigh_pitot(args.mach, args.gamma, args.pressure)
+    standoffs, pitots = [], []
+    for path in files:
+        s = Snapshot(path)
+        m = measure_bow_shock(s, args.centre, args.radius, args.mach, args.gamma, args.pressure)
+        if m is None:
+            print(f"t = {s.time:8.4f}: no shock found on the symmetry line")
+            continue
+        shock_x, standoff, nose_pressure = m
+        standoffs.append(standoff)
+        pitots.append(nose_pressure)
+        print(f"t = {s.time:8.4f}: shock at x = {shock_x:.4f}, stand-off {standoff:.4f}, nose pressure {nose_pressure:.3f}")
+    if not standoffs:
+        print("bow-shock: no measurement")
+        return 1
+    standoff, pitot = float(np.mean(standoffs)), float(np.mean(pitots))
+    standoff_error = abs(standoff - expected_standoff) / expected_standoff
+    pitot_error = abs(pitot - expected_pitot) / expected_pitot
+    print(f"mean of the last {len(standoffs)} outputs:")
+    print(f"  stand-off distance {standoff:.4f}  (Billig {expected_standoff:.4f}, error {100 * standoff_error:.1f}%)")
+    print(f"  nose pressure      {pitot:.3f}  (Rayleigh pitot {expected_pitot:.3f}, error {100 * pitot_error:.1f}%)")
+    failed = False
+    if args.max_standoff_error is not None and standoff_error > args.max_standoff_error:
+        print(f"FAIL: stand-off error {100 * standoff_error:.1f}% > {100 * args.max_standoff_error:.1f}%")
+        failed = True
+    if args.max_pitot_error is not None and pitot_error > args.max_pitot_error:
+        print(f"FAIL: nose pressure error {100 * pitot_error:.1f}% > {100 * args.max_pitot_error:.1f}%")
+        failed = True
+    return 1 if failed else 0
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True)
+    fields = sub.add_parser("fields", help="PNGs of pressure, density, Mach number and schlieren")
+    fields.add_argument("output_dir")
+    fields.add_argument("--step", type=int, help="output index (default: the last)")
+    fields.add_argument("--out", help="directory for the PNGs (default: the output directory)")
+    fields.add_argument("--gamma", type=float, default=1.4)
+    sod = sub.add_parser("sod", help="Sod comparison with the exact solution")
+    sod.add_argument("output_dir")
+    sod.add_argument("--case", required=True, help="the case file that was run (for the two states)")
+    sod.add_argument("--mpmflow", help="the mpmflow binary (default: build/*/bin/mpmflow)")
+    sod.add_argument("--out", help="PNG path (default: OUTPUT_DIR/<case>_comparison.png)")
+    shock = sub.add_parser("bow-shock", help="stand-off distance and nose pressure of a cylinder's bow shock")
+    shock.add_argument("output_dir")
+    shock.add_argument("--centre", type=float, nargs=2, default=[0.6, 1.0])
+    shock.add_argument("--radius", type=float, default=0.25)
+    shock.add_argument("--mach", type=float, default=3.0)
+    shock.add_argument("--gamma", type=float, default=1.4)
+    shock.add_argument("--pressure", type=float, default=1.0, help="free-stream pressure")
+    shock.add_argument("--last", type=int, default=3, help="average over the last K outputs")
+    shock.add_argument("--max-standoff-error", type=float)
+    shock.add_argument("--max-pitot-error", type=float)
+    args = parser.parse_args()
+    if args.command == "fields":
+        plot_fields(args)
+    elif args.command == "sod":
+        plot_sod(args)
+    else:
+        sys.exit(bow_shock(args))
+
+
+if __name__ == "__main__":
+    main()
