@@ -206,6 +206,12 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
       PolygonTransform transform;
       transform.scale = r.number_or("scale", 1.0, Bounds::positive());
       transform.rotation_degrees = r.number_or("rotation_degrees", 0.0, Bounds::any());
+      if (r.has("angle_of_attack_degrees")) {  // the aerodynamicist's name: nose up is a clockwise rotation
+        if (r.has("rotation_degrees"))
+          throw ConfigError(r.source() + ": " + r.at("angle_of_attack_degrees") +
+                            ": expected either rotation_degrees or angle_of_attack_degrees, not both");
+        transform.rotation_degrees = -r.number("angle_of_attack_degrees", Bounds::any());
+      }
       if (r.has("translation")) {
         const auto t = read_pair(r, "translation", "an array [dx, dy] of two numbers");
         transform.translation_x = t.first;
@@ -234,7 +240,8 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
   }
   r.finish();
   // An obstacle may touch the domain's edges (the step does) but not reach beyond them.
-  const double tolerance = 1e-9 * std::max(domain.x_max - domain.x_min, domain.y_max - domain.y_min);
+  const double width = domain.x_max - domain.x_min, height = domain.y_max - domain.y_min;
+  const double tolerance = 1e-9 * std::max(width, height);
   if (x_lo < domain.x_min - tolerance || x_hi > domain.x_max + tolerance || y_lo < domain.y_min - tolerance ||
       y_hi > domain.y_max + tolerance) {
     std::ostringstream msg;
@@ -242,6 +249,18 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
         << domain.x_min << ", " << domain.x_max << "] x [" << domain.y_min << ", " << domain.y_max
         << "]; its bounding box is [" << x_lo << ", " << x_hi << "] x [" << y_lo << ", " << y_hi << "]";
     throw ConfigError(msg.str());
+  }
+  // A rectangle side on a domain side is not a surface the gas meets: moved out of the domain, it
+  // can never be the nearest surface that a particle entering near it is pushed back to.
+  if (obstacle.shape == ObstacleShape::rectangle) {
+    for (real_t& x : obstacle.vertices_x) {
+      if (x <= domain.x_min + tolerance) x = domain.x_min - width;
+      if (x >= domain.x_max - tolerance) x = domain.x_max + width;
+    }
+    for (real_t& y : obstacle.vertices_y) {
+      if (y <= domain.y_min + tolerance) y = domain.y_min - height;
+      if (y >= domain.y_max - tolerance) y = domain.y_max + height;
+    }
   }
   return obstacle;
 }

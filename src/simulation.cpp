@@ -116,7 +116,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     auto scope = solver.timers().scope("output");
     const std::string path = writer->write(next_snapshot, solver.step_count(), t, solver, totals);
     diagnostics_log->append(solver.step_count(), t, totals);
-    log << "  output " << next_snapshot << " at t = " << t << ": " << path << "\n";
+    log << "  output " << next_snapshot << " at t = " << t << ": " << path << std::endl;
 #else
     (void)t;
     (void)totals;
@@ -170,7 +170,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
       log << "step " << solver.step_count() << "  t " << std::setprecision(6) << t << "  dt " << std::setprecision(3)
           << t - t_before << "  " << std::fixed << std::setprecision(1) << 100 * fraction << "%  " << std::scientific
           << std::setprecision(2) << rate << " particle-steps/s  ETA "
-          << format_seconds(fraction > 0 ? elapsed * (1 - fraction) / fraction : 0) << std::defaultfloat << "\n";
+          << format_seconds(fraction > 0 ? elapsed * (1 - fraction) / fraction : 0) << std::defaultfloat << std::endl;  // flushed: batch jobs log to files
     }
   }
 

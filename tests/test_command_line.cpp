@@ -149,6 +149,32 @@ TEST_F(CommandLine, RunWritesHdf5SnapshotsXdmfAndDiagnostics) {
   }
   EXPECT_EQ(rows, 3);
 }
+// Two streams colliding at 50 times the sound speed, at CFL 1: a particle's density turns negative
+// in the first step. The run stops with exit 1, names the step, the particle and its position,
+// and leaves the last good output and the failed state on disk, both listed in the XDMF.
+TEST_F(CommandLine, InvalidStateStopsTheRunNamingTheParticle) {
+  std::string text = sod_with("\"cfl\": 0.5", "\"cfl\": 1.0");
+  for (const auto& swap : {std::make_pair(std::string("\"pressure\": 0.1, \"velocity\": [0.0, 0.0]"),
+                                          std::string("\"pressure\": 0.1, \"velocity\": [-50.0, 0.0]")),
+                           std::make_pair(std::string("\"pressure\": 1.0, \"velocity\": [0.0, 0.0]"),
+                                          std::string("\"pressure\": 1.0, \"velocity\": [50.0, 0.0]"))}) {
+    const auto at = text.find(swap.first);
+    ASSERT_NE(at, std::string::npos) << swap.first;
+    text.replace(at, swap.first.size(), swap.second);
+  }
+  write_case("crash.json", text);
+  const CommandResult r = run_mpmflow("run crash.json --output out", dir_);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("mpmflow: error: invalid state after step 1: particle "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(" at (0.5"), std::string::npos) << r.output;  // where the streams meet
+  EXPECT_NE(r.output.find("has density -"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("the last good state is output 0, the failed state output 1"), std::string::npos)
+      << r.output;
+  EXPECT_TRUE(fs::exists(dir_ / "out" / "sod_000000.h5"));
+  EXPECT_TRUE(fs::exists(dir_ / "out" / "sod_000001.h5"));
+  EXPECT_NE(read_text(dir_ / "out" / "sod_particles.xmf").find("sod_000001.h5"), std::string::npos);
+}
+
 #else
 TEST_F(CommandLine, OutputRequestWithoutHdf5IsRefused) {
   write_case("case.json", sod_text_);
@@ -158,5 +184,17 @@ TEST_F(CommandLine, OutputRequestWithoutHdf5IsRefused) {
   EXPECT_NE(r.output.find("final: mass"), std::string::npos);
 }
 #endif
+
+// A geometry error is a case-file error: exit 2, the message, nothing written.
+TEST_F(CommandLine, BadGeometryIsRejectedBeforeAnythingIsWritten) {
+  std::ofstream(dir_ / "wing.dat") << "WING\n0 0\n1 1\n1 0\n0 1\n";
+  write_case("case.json", R"({"name": "wing", "domain": {"x": [0, 4], "y": [0, 2], "cells_x": 40, "cells_y": 20},
+    "time": {"end": 0.1}, "particles": {"per_cell": [2, 2]},
+    "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"}},
+    "free_stream": {"density": 1, "pressure": 1, "velocity": [1, 0]},
+    "obstacles": [{"type": "polygon", "file": "wing.dat", "translation": [1, 0.5]}]})");
+  expect_rejected("run case.json", "case.json: /obstacles/0 (polygon) from ");
+  expect_rejected("run case.json", "expected a simple polygon; it intersects itself: edge 0 (1, 0.5)-(2, 1.5) meets");
+}
 
 }  // namespace
