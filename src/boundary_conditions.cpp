@@ -80,10 +80,20 @@ void apply_open_sides(const GridSlab& slab, const BoundaryType (&side_type)[num_
       const index_t last = column ? slab.local_node_y(slab.global_cells_y) : slab.local_node_x(slab.global_cells_x);
       const real_t outward = (side == left_side || side == bottom_side) ? real_t(-1) : real_t(1);
       const real_t push = -free_stream.pressure * outward;
+      // A node on the side holds free_stream density x length x half a cell of mass when the gas
+      // beside it is the free stream. Where particles have thinned out (gas leaving along a side
+      // parallel to the flow), the node gets the traction in proportion to the mass it holds, so
+      // the acceleration the traction causes never exceeds that of a full node; applied whole to
+      // a nearly empty node it would throw the few particles there into the domain.
+      const real_t normal_spacing = column ? geo.spacing_x : geo.spacing_y;
+      const real_t full_mass_per_length = free_stream.density * normal_spacing / 2;
       for_line_nodes("outflow_pressure", geo, line, KOKKOS_LAMBDA(const index_t node, const index_t k) {
         if (k < first || k > last) return;
         const real_t length = (k == first || k == last) ? spacing / 2 : spacing;
-        state(node, column ? GridFields::force_x : GridFields::force_y) += push * length;
+        const real_t full_mass = full_mass_per_length * length;
+        const real_t mass = state(node, GridFields::mass);
+        const real_t share = mass < full_mass ? mass / full_mass : real_t(1);
+        state(node, column ? GridFields::force_x : GridFields::force_y) += push * length * share;
       });
     }
   }

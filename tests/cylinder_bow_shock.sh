@@ -7,7 +7,7 @@ binary=$1 source_dir=$2 work_dir=$3
 rm -rf "$work_dir"
 mkdir -p "$work_dir"
 "$binary" run "$source_dir/cases/cylinder_mach3.json" --output "$work_dir/output" --progress-interval 1000 \
-  --set domain/cells_x=100 --set domain/cells_y=50 --set particles/per_cell=[2,2] --set output/snapshots=12
+  --set domain/cells_x=100 --set domain/cells_y=50 --set particles/per_cell=[3,3] --set output/snapshots=20
 # Debian's python3 (h5py, matplotlib), not a pyenv shim first on PATH.
-/usr/bin/python3 "$source_dir/tools/mpmflow_plot.py" bow-shock "$work_dir/output" --last 4 \
-  --max-standoff-error 0.3 --max-pitot-error 0.25
+/usr/bin/python3 "$source_dir/tools/mpmflow_plot.py" bow-shock "$work_dir/output" --last 10 \
+  --max-standoff-error 0.3 --max-pitot-error 0.35
