@@ -301,9 +301,7 @@ real_t Solver::stable_time_step() {
   const real_t max_speed = max_over_particles(
       "max_signal_speed", particles_.count, KOKKOS_LAMBDA(const index_t k) {
         const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k)));
-        // Written so that NaN fails every test: a NaN compares false.
-        const bool valid = rho(k) > 0 && p(k) == p(k) && speed < invalid;
-        return valid ? speed : invalid;
+        return is_valid_gas_state(rho(k), p(k), speed) ? speed : invalid;
       });
   if (!(max_speed < invalid)) report_invalid_particle();
   const real_t h = slab_.cell_size();
@@ -314,12 +312,13 @@ real_t Solver::stable_time_step() {
 void Solver::report_invalid_particle() const {
   const auto x = particles_.position_x, y = particles_.position_y, vx = particles_.velocity_x,
              vy = particles_.velocity_y, p = particles_.pressure, rho = particles_.density;
+  const real_t gamma = config_.physics.gamma;
   index_t first = particles_.count;
   Kokkos::parallel_reduce(
       "find_invalid_particle", Kokkos::RangePolicy<ExecutionSpace>(0, particles_.count),
       KOKKOS_LAMBDA(const index_t k, index_t& smallest) {
-        const bool valid = rho(k) > 0 && p(k) == p(k) && vx(k) == vx(k) && vy(k) == vy(k) &&
-                           x(k) == x(k) && y(k) == y(k);
+        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k)));
+        const bool valid = is_valid_gas_state(rho(k), p(k), speed) && x(k) == x(k) && y(k) == y(k);
         if (!valid && k < smallest) smallest = k;
       },
       Kokkos::Min<index_t>(first));
