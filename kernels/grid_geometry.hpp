@@ -12,6 +12,10 @@ struct GridGeometry {
   real_t spacing_y = 1;
   index_t nodes_x = 0;  // local node counts, ghost layers included
   index_t nodes_y = 0;
+  // Ghost cell layers on each side. A particle belongs to a non-ghost cell: cell_of clamps to
+  // them, so a particle that round-off puts a hair outside its slab still has its whole stencil
+  // on local nodes.
+  index_t ghost_cells = 0;
 
   KOKKOS_INLINE_FUNCTION index_t cells_x() const { return nodes_x - 1; }
   KOKKOS_INLINE_FUNCTION index_t cells_y() const { return nodes_y - 1; }
@@ -22,13 +26,22 @@ struct GridGeometry {
   KOKKOS_INLINE_FUNCTION real_t node_y(index_t j) const { return origin_y + spacing_y * j; }
 
   // Cell containing (x, y); a point on a cell face belongs to the cell on its upper side.
-  // Callers guarantee the point lies inside the local slab.
-  KOKKOS_INLINE_FUNCTION index_t cell_of(real_t x, real_t y) const {
-    index_t ci = static_cast<index_t>((x - origin_x) / spacing_x);
-    index_t cj = static_cast<index_t>((y - origin_y) / spacing_y);
-    ci = ci < 0 ? 0 : (ci >= cells_x() ? cells_x() - 1 : ci);
-    cj = cj < 0 ? 0 : (cj >= cells_y() ? cells_y() - 1 : cj);
+  // Clamped to the non-ghost cells, or to all local cells with include_ghosts (a particle that has
+  // just moved into a neighbour's slab and is not yet migrated).
+  KOKKOS_INLINE_FUNCTION index_t cell_of(real_t x, real_t y, bool include_ghosts = false) const {
+    const index_t g = include_ghosts ? 0 : ghost_cells;
+    index_t ci = static_cast<index_t>(floor_div(x - origin_x, spacing_x));
+    index_t cj = static_cast<index_t>(floor_div(y - origin_y, spacing_y));
+    ci = ci < g ? g : (ci >= cells_x() - g ? cells_x() - 1 - g : ci);
+    cj = cj < g ? g : (cj >= cells_y() - g ? cells_y() - 1 - g : cj);
     return ci + cells_x() * cj;
+  }
+
+  // floor(a / b) for b > 0, as a real (no <cmath> in device code needed).
+  KOKKOS_INLINE_FUNCTION static real_t floor_div(real_t a, real_t b) {
+    const real_t q = a / b;
+    const real_t t = static_cast<real_t>(static_cast<long long>(q));
+    return t > q ? t - 1 : t;
   }
 };
 

@@ -23,6 +23,7 @@ enum Side : int { left_side = 0, right_side, bottom_side, top_side, num_sides };
 // Then, on nodes inside an obstacle, the inward normal component is removed (eqs. 21-22).
 class GridBoundaryConditions {
  public:
+  GridBoundaryConditions() = default;
   GridBoundaryConditions(const CaseConfig& config, const GridSlab& slab, const ObstacleGrid& obstacles);
 
   // Step 4: momentum and force columns of `state` (the node mass is its mass column).
@@ -32,7 +33,7 @@ class GridBoundaryConditions {
 
  private:
   GridSlab slab_;
-  BoundaryType side_type_[num_sides];
+  BoundaryType side_type_[num_sides] = {};
   GasState free_stream_;
   ObstacleGrid obstacles_;
 };
@@ -107,7 +108,7 @@ KOKKOS_INLINE_FUNCTION void ParticleBoundaries::move(index_t p, real_t dt, const
   }
   // Open sides: whatever is still outside left through an inflow or outflow side.
   if (x < x_min || x > x_max || y < y_min || y > y_max) recycle(p, pt, x, y);
-  if (has_obstacles && cell_near_obstacle(grid.cell_of(x, y))) {
+  if (has_obstacles && cell_near_obstacle(grid.cell_of(x, y, /*include_ghosts=*/true))) {
     const SignedDistance sd = obstacles(x, y);
     if (sd.distance < 0) {
       x += (surface_offset - sd.distance) * sd.normal_x;

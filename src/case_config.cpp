@@ -171,8 +171,26 @@ std::pair<double, double> read_pair(ObjectReader& r, const std::string& key, con
 // One obstacle of /obstacles, resolved into a circle or a closed polygon and checked: a points
 // file must exist and hold at least three points of a simple (not self-intersecting) polygon, and
 // the obstacle must lie inside the domain.
+// A points file from the cache when it holds it; else from disk, and then into the cache.
+Polygon read_points_file_through(const std::string& path, PointsFiles* points_files) {
+  if (points_files) {
+    const auto it = points_files->files.find(path);
+    if (it != points_files->files.end()) {
+      Polygon polygon;
+      for (const auto& p : it->second) polygon.push_back({p.first, p.second});
+      return polygon;
+    }
+  }
+  Polygon polygon = read_points_file(path);
+  if (points_files) {
+    auto& stored = points_files->files[path];
+    for (const Point& p : polygon) stored.emplace_back(p.x, p.y);
+  }
+  return polygon;
+}
+
 ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const DomainConfig& domain,
-                             const std::filesystem::path& case_directory) {
+                             const std::filesystem::path& case_directory, PointsFiles* points_files) {
   ObstacleConfig obstacle;
   obstacle.shape = r.choice("type", std::vector<std::pair<std::string, ObstacleShape>>{
                                         {"circle", ObstacleShape::circle},
@@ -199,7 +217,7 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
       const std::string file = r.string("file");
       const std::filesystem::path path = std::filesystem::path(file).is_absolute() ? std::filesystem::path(file) : case_directory / file;
       try {
-        polygon = read_points_file(path.string());
+        polygon = read_points_file_through(path.string(), points_files);
       } catch (const std::runtime_error& e) {
         throw ConfigError(r.source() + ": " + r.at("file") + ": " + e.what());
       }
@@ -273,7 +291,7 @@ BoundaryType read_boundary(ObjectReader& boundaries, const std::string& side) {
   return type;
 }
 
-CaseConfig parse_document(const json& doc, const std::string& source) {
+CaseConfig parse_document(const json& doc, const std::string& source, PointsFiles* points_files) {
   const std::filesystem::path case_directory = std::filesystem::path(source).parent_path();
   CaseConfig cfg;
   cfg.source = source;
@@ -347,7 +365,7 @@ CaseConfig parse_document(const json& doc, const std::string& source) {
     for (size_t i = 0; i < obstacles.size(); ++i) {
       const std::string where = "/obstacles/" + std::to_string(i);
       ObjectReader r(obstacles[i], source, where);
-      cfg.obstacles.push_back(read_obstacle(r, where, cfg.domain, case_directory));
+      cfg.obstacles.push_back(read_obstacle(r, where, cfg.domain, case_directory, points_files));
     }
   }
 
@@ -402,6 +420,15 @@ CaseConfig parse_document(const json& doc, const std::string& source) {
       if (cfg.output.directory.empty()) r.fail("/output/directory", "a non-empty path", doc["output"]["directory"]);
     }
     cfg.output.snapshots = static_cast<int>(r.integer_or("snapshots", 10, 0, 100000));
+    cfg.output.checkpoint_interval = static_cast<long>(r.integer_or("checkpoint_interval", 0, 0, 1L << 40));
+    cfg.output.checkpoints_kept = static_cast<int>(r.integer_or("checkpoints_kept", 2, 0, 1 << 20));
+    r.finish();
+  }
+
+  if (root.has("decomposition")) {
+    ObjectReader r = root.object("decomposition");
+    cfg.decomposition.axis = r.choice_or("axis", 0, {{"x", 0}, {"y", 1}});
+    cfg.decomposition.balance_interval = static_cast<int>(r.integer_or("balance_interval", 0, 0, 1 << 30));
     r.finish();
   }
 
@@ -439,13 +466,13 @@ void apply_override(json& doc, const std::string& source, const std::string& ass
 
 }  // namespace
 
-CaseConfig parse_case(const std::string& json_text, const std::string& source) {
+CaseConfig parse_case(const std::string& json_text, const std::string& source, PointsFiles* points_files) {
   json doc = json::parse(json_text, nullptr, false);
   if (doc.is_discarded()) throw ConfigError(source + ": not valid JSON");
-  return parse_document(doc, source);
+  return parse_document(doc, source, points_files);
 }
 
-CaseConfig load_case_file(const std::string& path, const std::vector<std::string>& overrides) {
+std::string load_case_document(const std::string& path, const std::vector<std::string>& overrides) {
   std::ifstream in(path);
   if (!in) throw ConfigError(path + ": cannot open the case file");
   json doc;
@@ -455,7 +482,31 @@ CaseConfig load_case_file(const std::string& path, const std::vector<std::string
     throw ConfigError(path + ": not valid JSON: " + e.what());
   }
   for (const auto& assignment : overrides) apply_override(doc, path, assignment);
-  return parse_document(doc, path);
+  return doc.dump();
+}
+
+CaseConfig load_case_file(const std::string& path, const std::vector<std::string>& overrides) {
+  return parse_case(load_case_document(path, overrides), path);
+}
+
+std::string PointsFiles::serialise() const {
+  json out = json::object();
+  for (const auto& file : files) {
+    json points = json::array();
+    for (const auto& p : file.second) points.push_back({p.first, p.second});
+    out[file.first] = points;
+  }
+  return out.dump();
+}
+
+PointsFiles PointsFiles::deserialise(const std::string& text) {
+  PointsFiles result;
+  const json in = json::parse(text);
+  for (auto it = in.begin(); it != in.end(); ++it) {
+    auto& points = result.files[it.key()];
+    for (const auto& p : it.value()) points.emplace_back(p[0].get<double>(), p[1].get<double>());
+  }
+  return result;
 }
 
 const char* to_string(BoundaryType type) {

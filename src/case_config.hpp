@@ -2,7 +2,9 @@
 // A case file parsed into typed, validated structs. Parsing rejects unknown keys, wrong types and
 // out-of-range values with a ConfigError naming the file, the JSON path and what was expected.
 #include <stdexcept>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "kernels/types.hpp"
@@ -97,6 +99,15 @@ struct InitialStateConfig {
 struct OutputConfig {
   std::string directory;  // default: output/<case name>
   int snapshots = 10;     // outputs equidistant in time, the final state included; 0: none
+  // A checkpoint every this many steps and at the end; 0: none.
+  long checkpoint_interval = 0;
+  int checkpoints_kept = 2;  // the newest this many checkpoint files are kept; 0: all
+};
+
+// How a distributed run splits the grid: slabs along one axis, one per MPI rank.
+struct DecompositionConfig {
+  int axis = 0;              // 0: slabs along x (cuts at x = const), 1: along y
+  int balance_interval = 0;  // rebalance the slabs every this many steps; 0: never
 };
 
 struct NumericsConfig {
@@ -118,14 +129,28 @@ struct CaseConfig {
   InitialStateConfig initial_state;
   OutputConfig output;
   NumericsConfig numerics;
+  DecompositionConfig decomposition;
+};
+
+// The points files (obstacle outlines) a case reads, by path, so that one MPI rank can read them
+// and hand them to the others with the case text.
+struct PointsFiles {
+  std::map<std::string, std::vector<std::pair<double, double>>> files;
+  std::string serialise() const;
+  static PointsFiles deserialise(const std::string& text);
 };
 
 // Reads and validates `path`, after applying `overrides` of the form "json/path=value" (value
 // parsed as JSON, or taken as a string when it is not valid JSON).
 CaseConfig load_case_file(const std::string& path, const std::vector<std::string>& overrides = {});
 
-// Validates an already parsed document; `source` names it in error messages.
-CaseConfig parse_case(const std::string& json_text, const std::string& source);
+// The case file's JSON text with the overrides applied (not validated yet).
+std::string load_case_document(const std::string& path, const std::vector<std::string>& overrides = {});
+
+// Validates a case document; `source` names it in error messages (and points files resolve
+// against its directory). Points files come from `points_files` when it holds them; those read
+// from disk are added to it.
+CaseConfig parse_case(const std::string& json_text, const std::string& source, PointsFiles* points_files = nullptr);
 
 const char* to_string(BoundaryType type);
 const char* to_string(ObstacleShape shape);

@@ -36,6 +36,8 @@ struct GridSlab {
 
 // The slab owning global cells [cell_begin_x, cell_end_x) x all rows.
 GridSlab make_grid_slab(const DomainConfig& domain, index_t cell_begin_x, index_t cell_end_x);
+// The slab owning global cells [cell_begin, cell_end) along `axis` (0: x, 1: y), all cells across.
+GridSlab make_grid_slab(const DomainConfig& domain, int axis, index_t cell_begin, index_t cell_end);
 
 // Node fields of one slab. `state` holds the step's P2G results; `momentum_remap` the second
 // momentum P2G (Algorithm 1, step 8), kept apart so the mass column stays intact beside it.
@@ -46,6 +48,7 @@ struct GridFields {
   NodeFieldsView state;
   NodeFieldsView momentum_remap;
 
+  GridFields() = default;
   explicit GridFields(const GridGeometry& geometry)
       : state("node_state", geometry.num_nodes(), num_state_columns),
         momentum_remap("node_momentum_remap", geometry.num_nodes(), num_remap_columns) {}

@@ -1,9 +1,12 @@
 // mpmflow command line:
-//   mpmflow run CASE.json [--output DIR] [--set json/path=value ...] [--progress-interval S]
+//   [mpirun -np N] mpmflow run CASE.json [--output DIR] [--set json/path=value ...] [--progress-interval S]
+//                               [--restart CHECKPOINT.h5] [--gpu-aware-mpi]
 //   mpmflow riemann --left RHO,U,P --right RHO,U,P --x0 X --time T [--gamma G] [--x A,B] [--points N]
 //   mpmflow --version | --help
 // Kokkos options (--kokkos-threads=N / --kokkos-num-threads=N, ...) are passed through to Kokkos.
-// Exit codes: 0 success, 1 runtime failure, 2 bad command line or bad case file.
+// Exit codes: 0 success, 1 runtime failure, 2 bad command line or bad case file. Under MPI every
+// rank exits with the same code; rank 0 alone prints the error (an error met by one rank only
+// aborts the job).
 #include <algorithm>
 #include <cstdlib>
 #include <cstring>
@@ -15,8 +18,15 @@
 #include <mpi.h>
 #endif
 
+#if defined(KOKKOS_ENABLE_CUDA)
+#include <cuda_runtime_api.h>
+#elif defined(KOKKOS_ENABLE_HIP)
+#include <hip/hip_runtime_api.h>
+#endif
+
 #include "case_config.hpp"
 #include "exact_riemann.hpp"
+#include "parallel.hpp"
 #include "simulation.hpp"
 
 namespace {
@@ -25,7 +35,8 @@ constexpr int kExitRuntimeError = 1;
 constexpr int kExitUsage = 2;
 
 const char* kUsage =
-    "usage: mpmflow run CASE.json [--output DIR] [--set json/path=value ...] [--progress-interval SECONDS]\n"
+    "usage: [mpirun -np N] mpmflow run CASE.json [--output DIR] [--set json/path=value ...]\n"
+    "                      [--progress-interval SECONDS] [--restart CHECKPOINT.h5] [--gpu-aware-mpi]\n"
     "       mpmflow riemann --left RHO,U,P --right RHO,U,P --x0 X --time T [--gamma G] [--x A,B] [--points N]\n"
     "       mpmflow --version\n"
     "       mpmflow --help\n"
@@ -34,6 +45,10 @@ const char* kUsage =
     "  --set PATH=VALUE        override a case-file value, e.g. --set domain/cells_x=400\n"
     "                          (VALUE is JSON; anything that is not JSON is taken as a string)\n"
     "  --progress-interval S   seconds of wall time between progress lines (default 2)\n"
+    "  --restart FILE          continue from a checkpoint (output/checkpoint_interval writes them)\n"
+    "  --gpu-aware-mpi         pass GPU buffers to MPI directly (default: staged through host memory)\n"
+    "  Under mpirun each rank runs one slab of the grid (case key decomposition) and drives one GPU\n"
+    "  of its node (chosen from its node-local rank).\n"
     "  Kokkos options such as --kokkos-threads=N are passed to Kokkos.\n"
     "  riemann prints the exact solution of a 1D Riemann problem (Toro) as CSV x,density,velocity,pressure\n"
     "  (defaults: gamma 1.4, x in [0,1], 1001 points); the plotting tool draws it beside a run.\n";
@@ -45,6 +60,8 @@ struct CommandLine {
   std::string output_directory;
   std::vector<std::string> overrides;
   double progress_interval = 2.0;
+  std::string restart_file;
+  bool gpu_aware_mpi = false;
 };
 
 struct UsageError {
@@ -68,6 +85,8 @@ CommandLine parse_command_line(const std::vector<std::string>& args) {
       return args[++i];
     };
     if (a == "--output") cl.output_directory = value(a);
+    else if (a == "--restart") cl.restart_file = value(a);
+    else if (a == "--gpu-aware-mpi") cl.gpu_aware_mpi = true;
     else if (a == "--set") cl.overrides.push_back(value(a));
     else if (a == "--progress-interval") {
       const std::string v = value(a);
@@ -134,29 +153,88 @@ int print_riemann_solution(const std::vector<std::string>& args) {
   return 0;
 }
 
-int run(const CommandLine& cl) {
+// Rank 0 reads the case file (and any points file it names) and hands the text to the other
+// ranks, which parse the same text: a bad input is reported once, by rank 0, and every rank
+// then stops with a ConfigError.
+mpmflow::CaseConfig load_case_on_root(const CommandLine& cl, const mpmflow::ParallelContext& context) {
+  std::string error, text, files;
+  mpmflow::CaseConfig config;
+  if (context.is_root()) {
+    try {
+      text = mpmflow::load_case_document(cl.case_file, cl.overrides);
+      mpmflow::PointsFiles points;
+      config = mpmflow::parse_case(text, cl.case_file, &points);
+      files = points.serialise();
+    } catch (const mpmflow::ConfigError& e) {
+      error = e.what();
+    }
+  }
+  context.broadcast(error);
+  if (!error.empty()) throw mpmflow::ConfigError(error);
+  context.broadcast(text);
+  context.broadcast(files);
+  if (!context.is_root()) {
+    mpmflow::PointsFiles points = mpmflow::PointsFiles::deserialise(files);
+    config = mpmflow::parse_case(text, cl.case_file, &points);
+  }
+  if (!cl.output_directory.empty()) config.output.directory = cl.output_directory;
+  mpmflow::check_case_supported(config);
+  return config;
+}
+
+int run(const CommandLine& cl, const mpmflow::ParallelContext& context, const std::string& device) {
   if (cl.command == "riemann") return print_riemann_solution(cl.arguments);
   if (cl.command == "--help" || cl.command == "-h") {
-    std::cout << kUsage;
+    if (context.is_root()) std::cout << kUsage;
     return 0;
   }
   if (cl.command == "--version") {
-    std::cout << mpmflow::build_description() << "\n";
+    if (context.is_root()) std::cout << mpmflow::build_description() << "\n";
     return 0;
   }
-  mpmflow::CaseConfig config;
-  try {
-    config = mpmflow::load_case_file(cl.case_file, cl.overrides);
-    if (!cl.output_directory.empty()) config.output.directory = cl.output_directory;
-    mpmflow::check_case_supported(config);
-  } catch (const mpmflow::ConfigError& e) {
-    std::cerr << "mpmflow: error: " << e.what() << "\n";
-    return kExitUsage;
-  }
+  const mpmflow::CaseConfig config = load_case_on_root(cl, context);
   mpmflow::RunOptions options;
   options.progress_interval_seconds = cl.progress_interval;
+  options.restart_file = cl.restart_file;
+  options.gpu_aware_mpi = cl.gpu_aware_mpi;
+  options.device_description = device;
   mpmflow::run_simulation(config, options, std::cout);
   return 0;
+}
+
+// On a GPU build, each rank of a node drives its own GPU: the node-local rank (from a
+// shared-memory communicator) modulo the GPUs the node has, unless the user chose with
+// --kokkos-device-id. Returns the banner line.
+std::string choose_device(std::vector<std::string>& kokkos_args, const mpmflow::ParallelContext& context) {
+#if defined(KOKKOS_ENABLE_CUDA) || defined(KOKKOS_ENABLE_HIP)
+  int local_rank = 0;
+#ifdef MPMFLOW_HAVE_MPI
+  if (context.distributed()) {
+    MPI_Comm node;
+    MPI_Comm_split_type(context.comm(), MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &node);
+    MPI_Comm_rank(node, &local_rank);
+    MPI_Comm_free(&node);
+  }
+#endif
+  int devices = 0;
+#if defined(KOKKOS_ENABLE_CUDA)
+  if (cudaGetDeviceCount(&devices) != cudaSuccess) devices = 0;
+#else
+  if (hipGetDeviceCount(&devices) != hipSuccess) devices = 0;
+#endif
+  for (const std::string& a : kokkos_args)
+    if (a.rfind("--kokkos-device-id", 0) == 0 || a.rfind("--kokkos-map-device-id-by", 0) == 0)
+      return "rank " + std::to_string(context.rank()) + ": GPU chosen on the command line (" + a + ")";
+  if (devices <= 0) return "rank " + std::to_string(context.rank()) + ": no GPU visible";
+  const int device = local_rank % devices;
+  kokkos_args.push_back("--kokkos-device-id=" + std::to_string(device));
+  return "rank " + std::to_string(context.rank()) + " (node-local rank " + std::to_string(local_rank) +
+         ") drives GPU " + std::to_string(device) + " of " + std::to_string(devices);
+#else
+  (void)kokkos_args;
+  (void)context;
+  return "";
+#endif
 }
 
 }  // namespace
@@ -164,29 +242,43 @@ int run(const CommandLine& cl) {
 int main(int argc, char** argv) {
 #ifdef MPMFLOW_HAVE_MPI
   MPI_Init(&argc, &argv);
-  int num_ranks = 1;
-  MPI_Comm_size(MPI_COMM_WORLD, &num_ranks);
 #endif
   int status = 0;
-  Kokkos::initialize(argc, argv);  // removes the --kokkos-* options it recognises
   {
-    std::vector<std::string> args(argv + 1, argv + argc);
-    try {
+    const mpmflow::ParallelContext context;
+    std::vector<std::string> kokkos_args(argv, argv + argc);
+    const std::string device = choose_device(kokkos_args, context);
+    std::vector<char*> kokkos_argv;
+    for (std::string& a : kokkos_args) kokkos_argv.push_back(&a[0]);
+    int kokkos_argc = static_cast<int>(kokkos_argv.size());
+    Kokkos::initialize(kokkos_argc, kokkos_argv.data());  // removes the --kokkos-* options it recognises
+    {
+      std::vector<std::string> args(kokkos_argv.begin() + 1, kokkos_argv.begin() + kokkos_argc);
+      const bool root = context.is_root();
+      try {
+        status = run(parse_command_line(args), context, device);
+      } catch (const UsageError& e) {
+        if (root) std::cerr << "mpmflow: error: " << e.message << "\n" << kUsage;
+        status = kExitUsage;
+      } catch (const mpmflow::ConfigError& e) {
+        if (root) std::cerr << "mpmflow: error: " << e.what() << "\n";
+        status = kExitUsage;
+      } catch (const mpmflow::CollectiveError& e) {
+        if (root) std::cerr << "mpmflow: error: " << e.what() << "\n";
+        status = kExitRuntimeError;
+      } catch (const std::exception& e) {
+        std::cerr << "mpmflow: error";
+        if (context.distributed()) std::cerr << " on rank " << context.rank();
+        std::cerr << ": " << e.what() << "\n";
+        status = kExitRuntimeError;
 #ifdef MPMFLOW_HAVE_MPI
-      if (num_ranks > 1)
-        throw std::runtime_error("this mpmflow runs on one MPI rank only (the slab decomposition is not built "
-                                 "yet); started on " + std::to_string(num_ranks) + " ranks");
+        // The other ranks may be waiting in a collective call: only an abort ends them.
+        if (context.distributed()) MPI_Abort(context.comm(), status);
 #endif
-      status = run(parse_command_line(args));
-    } catch (const UsageError& e) {
-      std::cerr << "mpmflow: error: " << e.message << "\n" << kUsage;
-      status = kExitUsage;
-    } catch (const std::exception& e) {
-      std::cerr << "mpmflow: error: " << e.what() << "\n";
-      status = kExitRuntimeError;
+      }
     }
+    Kokkos::finalize();
   }
-  Kokkos::finalize();
 #ifdef MPMFLOW_HAVE_MPI
   MPI_Finalize();
 #endif

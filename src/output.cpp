@@ -8,9 +8,7 @@
 #include <stdexcept>
 #include <type_traits>
 
-#ifdef MPMFLOW_HAVE_HDF5
-#include <hdf5.h>
-#endif
+#include "hdf5_io.hpp"
 
 namespace mpmflow {
 
@@ -36,110 +34,98 @@ void DiagnosticsLog::append(long step, double time, const ConservationTotals& t)
   write_file_atomically(path_, text_);
 }
 
+void DiagnosticsLog::resume(long step) {
+  std::ifstream in(path_);
+  std::string line;
+  text_.clear();
+  while (std::getline(in, line)) {
+    const bool header = text_.empty() && line.rfind("step,", 0) == 0;
+    if (!header && std::stol(line.substr(0, line.find(','))) > step) break;
+    text_ += line + "\n";
+  }
+}
+
 #ifdef MPMFLOW_HAVE_HDF5
 namespace {
 
-// Closes an HDF5 handle when it goes out of scope, and turns a failed call into an exception.
-class H5Handle {
- public:
-  H5Handle(hid_t id, herr_t (*close)(hid_t), const std::string& what) : id_(id), close_(close) {
-    if (id_ < 0) throw std::runtime_error("HDF5: " + what + " failed");
-  }
-  ~H5Handle() { close_(id_); }
-  H5Handle(const H5Handle&) = delete;
-  H5Handle& operator=(const H5Handle&) = delete;
-  operator hid_t() const { return id_; }
+using h5::Handle;
 
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
-
-template <class T>
-hid_t h5_type() {
-  if (std::is_same<T, double>::value) return H5T_NATIVE_DOUBLE;
-  if (std::is_same<T, float>::value) return H5T_NATIVE_FLOAT;
-  if (std::is_same<T, std::int64_t>::value) return H5T_NATIVE_INT64;
-  return H5T_NATIVE_INT;
-}
-
-template <class T>
-void write_dataset(hid_t parent, const char* name, const T* data, std::vector<hsize_t> dims) {
-  H5Handle space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose,
-                 std::string("dataspace for ") + name);
-  H5Handle set(H5Dcreate2(parent, name, h5_type<T>(), space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose,
-               std::string("create dataset ") + name);
-  if (H5Dwrite(set, h5_type<T>(), H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
-    throw std::runtime_error(std::string("HDF5: write dataset ") + name + " failed");
-}
-
-void write_attribute(hid_t parent, const char* name, double value) {
-  H5Handle space(H5Screate(H5S_SCALAR), H5Sclose, "scalar dataspace");
-  H5Handle attr(H5Acreate2(parent, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-                std::string("create attribute ") + name);
-  H5Awrite(attr, H5T_NATIVE_DOUBLE, &value);
-}
-
-void write_string_attribute(hid_t parent, const char* name, const std::string& value) {
-  H5Handle type(H5Tcopy(H5T_C_S1), H5Tclose, "string type");
-  H5Tset_size(type, value.size() + 1);
-  H5Handle space(H5Screate(H5S_SCALAR), H5Sclose, "scalar dataspace");
-  H5Handle attr(H5Acreate2(parent, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
-                std::string("create attribute ") + name);
-  H5Awrite(attr, type, value.c_str());
-}
-
+// A particle field of every rank, one dataset in rank order.
 template <class ViewType>
-void write_particle_field(hid_t group, const char* name, const ViewType& view, index_t count) {
+void write_particle_field(hid_t group, const char* name, const ViewType& view, index_t count, hsize_t offset,
+                          hsize_t total, const ParallelContext& context) {
   auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
-  write_dataset(group, name, host.data(), {static_cast<hsize_t>(count)});
+  h5::write_block(group, name, {total}, {offset}, {static_cast<hsize_t>(count)}, host.data(), context);
 }
 
 }  // namespace
 
-SnapshotWriter::SnapshotWriter(std::string directory, std::string case_name)
-    : directory_(std::move(directory)), case_name_(std::move(case_name)) {
-  std::filesystem::create_directories(directory_);
+SnapshotWriter::SnapshotWriter(std::string directory, std::string case_name, const ParallelContext& context)
+    : directory_(std::move(directory)), case_name_(std::move(case_name)), context_(context) {
+  h5::require_parallel_if_distributed(context_);
+  if (context_.is_root()) std::filesystem::create_directories(directory_);
+  context_.barrier();
 }
 
 std::string SnapshotWriter::particles_xdmf_path() const { return directory_ + "/" + case_name_ + "_particles.xmf"; }
 std::string SnapshotWriter::grid_xdmf_path() const { return directory_ + "/" + case_name_ + "_grid.xmf"; }
 
+std::string SnapshotWriter::file_name(int index) const {
+  std::ostringstream name;
+  name << case_name_ << '_' << std::setw(6) << std::setfill('0') << index << ".h5";
+  return name.str();
+}
+
+void SnapshotWriter::resume(int num_written) {
+  // The snapshots an interrupted run wrote before its checkpoint: their times and particle counts
+  // for the XDMF series (read by every rank alike; the files are small to open).
+  records_.clear();
+  for (int index = 0; index < num_written; ++index) {
+    const std::string name = file_name(index);
+    const std::string path = directory_ + "/" + name;
+    if (!std::filesystem::exists(path)) continue;
+    Handle file(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "open " + path);
+    Handle group(H5Gopen2(file, "particles", H5P_DEFAULT), H5Gclose, "open group particles in " + path);
+    records_.push_back({name, h5::read_attribute(file, "time"), static_cast<long>(h5::dataset_length(group, "id"))});
+  }
+}
+
 std::string SnapshotWriter::write(int index, long step, double time, Solver& solver,
                                   const ConservationTotals& totals) {
   solver.project_to_grid();
-  std::ostringstream name;
-  name << case_name_ << '_' << std::setw(6) << std::setfill('0') << index << ".h5";
-  const std::string path = directory_ + "/" + name.str();
+  const std::string name = file_name(index);
+  const std::string path = directory_ + "/" + name;
   const std::string temporary = path + ".tmp";
   const ParticleState& pt = solver.particles();
   const GridSlab& slab = solver.slab();
   const index_t n = pt.count;
+  const hsize_t offset = static_cast<hsize_t>(context_.exclusive_prefix_sum(n));
+  const hsize_t total = static_cast<hsize_t>(context_.sum(n));
 
   {
-    H5Handle file(H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose,
-                  "create " + temporary);
-    write_attribute(file, "time", time);
-    write_attribute(file, "step", static_cast<double>(step));
-    write_string_attribute(file, "case", case_name_);
-    write_string_attribute(file, "layout",
-                           "particles: one 1D dataset per field, position is (N, 2) [x, y]; "
-                           "grid: (ny, nx) row-major node arrays, x fastest, physical nodes only");
+    Handle file(h5::create_file(temporary, context_), H5Fclose, "create " + temporary);
+    h5::write_attribute(file, "time", time);
+    h5::write_attribute(file, "step", static_cast<double>(step));
+    h5::write_attribute(file, "num_ranks", static_cast<double>(context_.size()));
+    h5::write_string_attribute(file, "case", case_name_);
+    h5::write_string_attribute(file, "layout",
+                               "particles: one 1D dataset per field, position is (N, 2) [x, y]; "
+                               "grid: (ny, nx) row-major node arrays, x fastest, physical nodes only");
 
     {
-      H5Handle diag(H5Gcreate2(file, "diagnostics", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-                    "create group diagnostics");
-      write_attribute(diag, "total_mass", totals.mass);
-      write_attribute(diag, "momentum_x", totals.momentum_x);
-      write_attribute(diag, "momentum_y", totals.momentum_y);
-      write_attribute(diag, "kinetic_energy", totals.kinetic_energy);
-      write_attribute(diag, "internal_energy", totals.internal_energy);
-      write_attribute(diag, "total_energy", totals.total_energy());
+      Handle diag(H5Gcreate2(file, "diagnostics", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                  "create group diagnostics");
+      h5::write_attribute(diag, "total_mass", totals.mass);
+      h5::write_attribute(diag, "momentum_x", totals.momentum_x);
+      h5::write_attribute(diag, "momentum_y", totals.momentum_y);
+      h5::write_attribute(diag, "kinetic_energy", totals.kinetic_energy);
+      h5::write_attribute(diag, "internal_energy", totals.internal_energy);
+      h5::write_attribute(diag, "total_energy", totals.total_energy());
     }
 
     {
-      H5Handle group(H5Gcreate2(file, "particles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-                     "create group particles");
+      Handle group(H5Gcreate2(file, "particles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                   "create group particles");
       auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.position_x);
       auto y = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.position_y);
       std::vector<real_t> xy(2 * static_cast<size_t>(n));
@@ -147,64 +133,69 @@ std::string SnapshotWriter::write(int index, long step, double time, Solver& sol
         xy[2 * k] = x(k);
         xy[2 * k + 1] = y(k);
       }
-      write_dataset(group, "position", xy.data(), {static_cast<hsize_t>(n), 2});
-      write_particle_field(group, "velocity_x", pt.velocity_x, n);
-      write_particle_field(group, "velocity_y", pt.velocity_y, n);
-      write_particle_field(group, "density", pt.density, n);
-      write_particle_field(group, "pressure", pt.pressure, n);
-      write_particle_field(group, "specific_energy", pt.specific_energy, n);
-      write_particle_field(group, "mass", pt.mass, n);
-      write_particle_field(group, "id", pt.id, n);
+      h5::write_block(group, "position", {total, 2}, {offset, 0}, {static_cast<hsize_t>(n), 2}, xy.data(), context_);
+      write_particle_field(group, "velocity_x", pt.velocity_x, n, offset, total, context_);
+      write_particle_field(group, "velocity_y", pt.velocity_y, n, offset, total, context_);
+      write_particle_field(group, "density", pt.density, n, offset, total, context_);
+      write_particle_field(group, "pressure", pt.pressure, n, offset, total, context_);
+      write_particle_field(group, "specific_energy", pt.specific_energy, n, offset, total, context_);
+      write_particle_field(group, "mass", pt.mass, n, offset, total, context_);
+      write_particle_field(group, "id", pt.id, n, offset, total, context_);
     }
 
     {
-      // Grid: the slab's physical nodes (ghosts dropped), with nodal velocity and a nodal density
-      // (node mass over the node's share of cell area: a quarter cell per adjacent cell).
+      // Grid: the physical nodes this slab owns (its first node line, and its last only at the
+      // domain's edge, so each node is written by one rank), with nodal velocity and a nodal
+      // density (node mass over the node's share of cell area: a quarter cell per adjacent cell).
       const GridGeometry& geo = slab.geometry;
-      const index_t i0 = slab.local_node_x(slab.owned_cell_begin_x);
-      const index_t i1 = slab.local_node_x(slab.owned_cell_end_x);
-      const index_t j0 = slab.local_node_y(0);
-      const index_t j1 = slab.local_node_y(slab.global_cells_y);
-      const index_t nx = i1 - i0 + 1, ny = j1 - j0 + 1;
+      const index_t gx0 = slab.owned_cell_begin_x, gy0 = slab.owned_cell_begin_y;
+      const index_t gx1 = slab.owned_cell_end_x + (slab.owned_cell_end_x == slab.global_cells_x ? 1 : 0);
+      const index_t gy1 = slab.owned_cell_end_y + (slab.owned_cell_end_y == slab.global_cells_y ? 1 : 0);
+      const index_t nx = gx1 - gx0, ny = gy1 - gy0;
       auto state = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), solver.grid_fields().state);
       std::vector<real_t> mass(nx * ny), vx(nx * ny), vy(nx * ny), density(nx * ny);
       const real_t threshold = solver.node_mass_threshold();
       for (index_t j = 0; j < ny; ++j)
         for (index_t i = 0; i < nx; ++i) {
-          const index_t node = geo.node_index(i0 + i, j0 + j);
+          const index_t node = geo.node_index(slab.local_node_x(gx0 + i), slab.local_node_y(gy0 + j));
           const index_t out = i + nx * j;
           const real_t m = state(node, GridFields::mass);
-          const bool edge_x = (i0 + i == slab.local_node_x(0)) || (i0 + i == slab.local_node_x(slab.global_cells_x));
-          const bool edge_y = (j == 0) || (j == ny - 1);
+          const bool edge_x = (gx0 + i == 0) || (gx0 + i == slab.global_cells_x);
+          const bool edge_y = (gy0 + j == 0) || (gy0 + j == slab.global_cells_y);
           const real_t area = slab.cell_area() * (edge_x ? 0.5 : 1) * (edge_y ? 0.5 : 1);
           mass[out] = m;
           vx[out] = m > threshold ? state(node, GridFields::momentum_x) / m : 0;
           vy[out] = m > threshold ? state(node, GridFields::momentum_y) / m : 0;
           density[out] = m / area;
         }
-      H5Handle group(H5Gcreate2(file, "grid", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
-                     "create group grid");
-      const std::vector<hsize_t> dims = {static_cast<hsize_t>(ny), static_cast<hsize_t>(nx)};
-      write_dataset(group, "node_mass", mass.data(), dims);
-      write_dataset(group, "node_velocity_x", vx.data(), dims);
-      write_dataset(group, "node_velocity_y", vy.data(), dims);
-      write_dataset(group, "node_density", density.data(), dims);
-      grid_nodes_x_ = nx;
-      grid_nodes_y_ = ny;
-      grid_origin_x_ = geo.node_x(i0);
-      grid_origin_y_ = geo.node_y(j0);
+      Handle group(H5Gcreate2(file, "grid", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                   "create group grid");
+      const std::vector<hsize_t> dims = {static_cast<hsize_t>(slab.global_cells_y + 1),
+                                         static_cast<hsize_t>(slab.global_cells_x + 1)};
+      const std::vector<hsize_t> start = {static_cast<hsize_t>(gy0), static_cast<hsize_t>(gx0)};
+      const std::vector<hsize_t> block = {static_cast<hsize_t>(ny), static_cast<hsize_t>(nx)};
+      h5::write_block(group, "node_mass", dims, start, block, mass.data(), context_);
+      h5::write_block(group, "node_velocity_x", dims, start, block, vx.data(), context_);
+      h5::write_block(group, "node_velocity_y", dims, start, block, vy.data(), context_);
+      h5::write_block(group, "node_density", dims, start, block, density.data(), context_);
+      grid_nodes_x_ = slab.global_cells_x + 1;
+      grid_nodes_y_ = slab.global_cells_y + 1;
+      grid_origin_x_ = slab.domain_x_min;
+      grid_origin_y_ = slab.domain_y_min;
       grid_spacing_x_ = geo.spacing_x;
       grid_spacing_y_ = geo.spacing_y;
-      write_attribute(group, "origin_x", grid_origin_x_);
-      write_attribute(group, "origin_y", grid_origin_y_);
-      write_attribute(group, "spacing_x", grid_spacing_x_);
-      write_attribute(group, "spacing_y", grid_spacing_y_);
+      h5::write_attribute(group, "origin_x", grid_origin_x_);
+      h5::write_attribute(group, "origin_y", grid_origin_y_);
+      h5::write_attribute(group, "spacing_x", grid_spacing_x_);
+      h5::write_attribute(group, "spacing_y", grid_spacing_y_);
     }
   }
-  std::filesystem::rename(temporary, path);
+  // Every rank has closed the file before rank 0 renames it.
+  context_.barrier();
+  if (context_.is_root()) std::filesystem::rename(temporary, path);
 
-  records_.push_back({name.str(), time, static_cast<long>(n)});
-  write_xdmf();
+  records_.push_back({name, time, static_cast<long>(total)});
+  if (context_.is_root()) write_xdmf();
   return path;
 }
 

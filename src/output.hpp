@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "diagnostics.hpp"
+#include "parallel.hpp"
 #include "solver.hpp"
 
 namespace mpmflow {
@@ -19,6 +20,8 @@ class DiagnosticsLog {
  public:
   explicit DiagnosticsLog(std::string path) : path_(std::move(path)) {}
   void append(long step, double time, const ConservationTotals& totals);
+  // After a restart at `step`: keeps the rows of the file up to that step.
+  void resume(long step);
 
  private:
   std::string path_;
@@ -28,8 +31,13 @@ class DiagnosticsLog {
 #ifdef MPMFLOW_HAVE_HDF5
 class SnapshotWriter {
  public:
-  // Creates `directory` if needed. Files are named <case_name>_<index>.h5.
-  SnapshotWriter(std::string directory, std::string case_name);
+  // Creates `directory` if needed. Files are named <case_name>_<index>.h5. All ranks of
+  // `context` write every snapshot together (collective calls); rank 0 writes the XDMF.
+  SnapshotWriter(std::string directory, std::string case_name, const ParallelContext& context);
+
+  // After a restart: takes the snapshots 0 .. num_written - 1 already in the directory into the
+  // XDMF time series.
+  void resume(int num_written);
 
   // Writes snapshot `index` and refreshes the XDMF time series; returns the HDF5 path. The grid
   // fields are the particles' mass and momentum projected where the particles are now.
@@ -45,9 +53,11 @@ class SnapshotWriter {
     long num_particles;
   };
   void write_xdmf() const;
+  std::string file_name(int index) const;
 
   std::string directory_;
   std::string case_name_;
+  ParallelContext context_;
   std::vector<Record> records_;
   // Owned grid nodes written, and their geometry, for the XDMF topology.
   long grid_nodes_x_ = 0, grid_nodes_y_ = 0;

@@ -26,6 +26,11 @@ ParticleState::ParticleState(index_t n)
       cell("particle_cell", n),
       id("particle_id", n) {}
 
+void ParticleState::reserve(index_t n) {
+  if (n <= capacity()) return;
+  for_each_field_mutable([n](auto& field) { Kokkos::resize(field, n); });
+}
+
 GasState initial_state_at(const InitialStateConfig& initial, real_t x, real_t y) {
   GasState state = initial.background;
   for (const Region& region : initial.regions)

@@ -25,18 +25,33 @@ struct ParticleState {
   explicit ParticleState(index_t n = 0);
 
   // Calls f(view) for every per-particle View: the one list of the fields, for everything that
-  // must treat all of them alike (reordering, migration, memory accounting).
+  // must treat all of them alike (reordering, migration, checkpoints, memory accounting). The
+  // non-const form may reallocate the Views (capacity growth).
   template <class F>
   void for_each_field(F&& f) const {
-    for (const RealView& v : {position_x, position_y, velocity_x, velocity_y, grid_velocity_x, grid_velocity_y,
-                              mass, density, specific_energy, pressure, artificial_viscosity, domain_stretch_x,
-                              domain_stretch_y})
-      f(v);
-    f(cell);
-    f(id);
+    visit_fields(*this, f);
+  }
+  template <class F>
+  void for_each_field_mutable(F&& f) {
+    visit_fields(*this, f);
   }
 
+  // Particles the Views can hold; `count` of them are in use. Views are allocated with room to
+  // spare on ranks that receive particles (migration), so that they rarely reallocate.
+  index_t capacity() const { return static_cast<index_t>(position_x.extent(0)); }
+  // Grows every View to hold at least `n` particles, keeping the first `count`.
+  void reserve(index_t n);
+
   ParticleLocations locations() const { return {position_x, position_y, cell}; }
+
+ private:
+  template <class Self, class F>
+  static void visit_fields(Self& self, F& f) {
+    f(self.position_x), f(self.position_y), f(self.velocity_x), f(self.velocity_y);
+    f(self.grid_velocity_x), f(self.grid_velocity_y), f(self.mass), f(self.density);
+    f(self.specific_energy), f(self.pressure), f(self.artificial_viscosity);
+    f(self.domain_stretch_x), f(self.domain_stretch_y), f(self.cell), f(self.id);
+  }
 };
 
 // Particles of the initial state on the slab's owned cells, placed as the case asks; ids are

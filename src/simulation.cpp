@@ -6,8 +6,11 @@
 #include <memory>
 #include <ostream>
 #include <sstream>
+#include <streambuf>
 
+#include "checkpoint.hpp"
 #include "output.hpp"
+#include "parallel.hpp"
 #include "particles.hpp"
 #include "solver.hpp"
 
@@ -78,63 +81,146 @@ void check_case_supported(const CaseConfig& config) {
 #endif
 }
 
-RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, std::ostream& log) {
+namespace {
+
+// Conservation totals over all ranks.
+ConservationTotals global_totals(DiagnosticsCalculator& diagnostics, const Solver& solver) {
+  const ConservationTotals local = diagnostics.compute(solver.particles());
+  double values[5] = {local.mass, local.momentum_x, local.momentum_y, local.kinetic_energy, local.internal_energy};
+  solver.context().sum_in_place(values, 5);
+  ConservationTotals totals;
+  totals.mass = values[0];
+  totals.momentum_x = values[1];
+  totals.momentum_y = values[2];
+  totals.kinetic_energy = values[3];
+  totals.internal_energy = values[4];
+  return totals;
+}
+
+std::string describe_slabs(const SlabDecomposition& d) {
+  std::ostringstream out;
+  out << (d.axis == 0 ? "x" : "y") << " cells";
+  for (int r = 0; r < d.num_ranks(); ++r) out << (r ? ", " : " ") << "[" << d.begin(r) << "," << d.end(r) << ")";
+  return out.str();
+}
+
+// Where stdout of ranks other than 0 goes.
+class NullBuffer : public std::streambuf {
+ protected:
+  int overflow(int c) override { return c; }
+};
+
+}  // namespace
+
+RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, std::ostream& root_log) {
   check_case_supported(config);
-  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
-  Solver solver(config, slab, create_initial_particles(config, slab));
+  ParallelContext context;
+  context.gpu_aware = options.gpu_aware_mpi;
+  NullBuffer null_buffer;
+  std::ostream null_log(&null_buffer);
+  std::ostream& log = context.is_root() ? root_log : null_log;
+
+  // Where to start: t = 0 with equal slabs, or a checkpoint.
+  RestartState restart;
+  const bool restarting = !options.restart_file.empty();
+  if (restarting) {
+#ifdef MPMFLOW_HAVE_HDF5
+    restart = read_checkpoint(options.restart_file, config, context);
+#else
+    throw CollectiveError("--restart needs HDF5, and this mpmflow was built without it");
+#endif
+  } else {
+    restart.decomposition = SlabDecomposition::even(config, context.size());
+    const SlabDecomposition& d = restart.decomposition;
+    restart.particles = create_initial_particles(
+        config, make_grid_slab(config.domain, d.axis, d.begin(context.rank()), d.end(context.rank())));
+  }
+  Solver solver(config, context, restart.decomposition, std::move(restart.particles));
+  solver.set_step_count(restart.clock.step);
   DiagnosticsCalculator diagnostics(solver.particles().count);
-  const index_t n = solver.particles().count;
+  const long long n = solver.global_particle_count();
   const double end_time = config.time.end_time;
 
   if (options.print_banner) {
-    log << build_description() << "\n"
-        << "case " << config.name << " (" << config.source << "): " << config.domain.cells_x << " x "
+    log << build_description() << "\n";
+    if (context.distributed())
+      log << "MPI ranks " << context.size() << ", slabs along " << describe_slabs(solver.decomposition())
+          << (config.decomposition.balance_interval > 0
+                  ? ", rebalanced every " + std::to_string(config.decomposition.balance_interval) + " steps"
+                  : std::string(", never rebalanced"))
+          << (context.gpu_aware ? ", GPU-aware MPI" : "") << "\n";
+    if (!options.device_description.empty()) log << options.device_description << "\n";
+    log << "case " << config.name << " (" << config.source << "): " << config.domain.cells_x << " x "
         << config.domain.cells_y << " cells, " << n << " particles, t_end " << end_time << ", cfl "
         << config.time.cfl << "\n"
         << "numerics: shape function " << to_string(config.numerics.shape_function) << ", P2G ScatterView "
         << to_string(solver.p2g_strategy()) << ", reorder every " << config.numerics.reorder_interval
         << " steps (0: never)\n";
+    if (restarting)
+      log << "restart from " << restart.path << ": step " << restart.clock.step << ", t = " << restart.clock.time
+          << "\n";
   }
 
   RunSummary summary;
-  summary.num_particles = n;
+  summary.num_particles = static_cast<long>(n);
   const int snapshots = config.output.snapshots;
 #ifdef MPMFLOW_HAVE_HDF5
   std::unique_ptr<SnapshotWriter> writer;
   std::unique_ptr<DiagnosticsLog> diagnostics_log;
   if (snapshots > 0) {
-    writer = std::make_unique<SnapshotWriter>(config.output.directory, config.name);
-    diagnostics_log = std::make_unique<DiagnosticsLog>(config.output.directory + "/diagnostics.csv");
+    writer = std::make_unique<SnapshotWriter>(config.output.directory, config.name, context);
+    if (context.is_root()) {
+      diagnostics_log = std::make_unique<DiagnosticsLog>(config.output.directory + "/diagnostics.csv");
+      if (restarting) diagnostics_log->resume(restart.clock.step);
+    }
+    if (restarting) writer->resume(restart.clock.next_snapshot);
     summary.output_directory = config.output.directory;
   }
+  const long checkpoint_interval = config.output.checkpoint_interval;
 #endif
-  int next_snapshot = 0;
+  int next_snapshot = restart.clock.next_snapshot;
   auto snapshot_time = [&](int k) { return end_time * k / snapshots; };
   auto write_output = [&](double t, const ConservationTotals& totals) {
 #ifdef MPMFLOW_HAVE_HDF5
     if (!writer) return;
     auto scope = solver.timers().scope("output");
     const std::string path = writer->write(next_snapshot, solver.step_count(), t, solver, totals);
-    diagnostics_log->append(solver.step_count(), t, totals);
+    if (diagnostics_log) diagnostics_log->append(solver.step_count(), t, totals);
     log << "  output " << next_snapshot << " at t = " << t << ": " << path << std::endl;
 #else
     (void)t;
     (void)totals;
 #endif
   };
+  double t = restart.clock.time;
+  long last_checkpoint_step = -1;
+  auto write_checkpoint_now = [&]() {
+#ifdef MPMFLOW_HAVE_HDF5
+    if (checkpoint_interval <= 0 || last_checkpoint_step == solver.step_count()) return;
+    auto scope = solver.timers().scope("checkpoint");
+    const RunClock clock{t, solver.step_count(), next_snapshot, summary.initial_totals};
+    const std::string path =
+        write_checkpoint(config.output.directory, config.name, solver, clock, config.output.checkpoints_kept);
+    last_checkpoint_step = solver.step_count();
+    log << "  checkpoint at step " << solver.step_count() << ", t = " << t << ": " << path << std::endl;
+#endif
+  };
 
-  summary.initial_totals = diagnostics.compute(solver.particles());
-  print_totals(log, "t = 0", summary.initial_totals, summary.initial_totals);
-  if (snapshots > 0) {
+  const ConservationTotals start_totals = global_totals(diagnostics, solver);
+  summary.initial_totals = restarting ? restart.clock.initial_totals : start_totals;
+  print_totals(log, restarting ? "restart" : "t = 0", start_totals, summary.initial_totals);
+  bool last_state_written = false;
+  if (snapshots > 0 && !restarting) {
     write_output(0.0, summary.initial_totals);
     next_snapshot = 1;
+    last_state_written = true;
   }
 
-  double t = 0;
   Kokkos::Timer wall;
   double last_report = 0;
   const long max_steps = config.time.max_steps;
-  bool last_state_written = snapshots > 0;
+  const long first_step = solver.step_count();
+  size_t balance_reports_printed = 0;
   while (t < end_time && (max_steps == 0 || solver.step_count() < max_steps)) {
     const double target = snapshots > 0 ? snapshot_time(next_snapshot) : end_time;
     const double t_before = t;
@@ -150,42 +236,61 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
       if (snapshots > 0) {
         msg << "; the last good state is output " << next_snapshot - 1 << ", the failed state output "
             << next_snapshot << " in " << config.output.directory;
-        write_output(t, diagnostics.compute(solver.particles()));
+        write_output(t, global_totals(diagnostics, solver));
       }
-      throw std::runtime_error(msg.str());
+      throw CollectiveError(msg.str());
     }
 
+    for (; balance_reports_printed < solver.balance_reports().size(); ++balance_reports_printed) {
+      const BalanceReport& b = solver.balance_reports()[balance_reports_printed];
+      log << "  load balance at step " << b.step << ": imbalance (max/mean particles per rank) "
+          << std::setprecision(3) << b.imbalance_before << " -> " << b.imbalance_after << ", slabs along "
+          << describe_slabs(b.decomposition) << std::setprecision(6) << std::endl;
+    }
     if (snapshots > 0 && t == target) {
-      const ConservationTotals totals = diagnostics.compute(solver.particles());
+      const ConservationTotals totals = global_totals(diagnostics, solver);
       print_totals(log, ("t = " + std::to_string(t)).c_str(), totals, summary.initial_totals);
       write_output(t, totals);
       ++next_snapshot;
       last_state_written = true;
     }
+#ifdef MPMFLOW_HAVE_HDF5
+    if (checkpoint_interval > 0 && solver.step_count() % checkpoint_interval == 0) write_checkpoint_now();
+#endif
     const double elapsed = wall.seconds();
     if (elapsed - last_report >= options.progress_interval_seconds) {
       last_report = elapsed;
-      const double rate = double(n) * solver.step_count() / elapsed;
+      const double rate = double(n) * (solver.step_count() - first_step) / elapsed;
       const double fraction = t / end_time;
+      const double start_fraction = restart.clock.time / end_time;
+      const double done = fraction - start_fraction;
       log << "step " << solver.step_count() << "  t " << std::setprecision(6) << t << "  dt " << std::setprecision(3)
           << t - t_before << "  " << std::fixed << std::setprecision(1) << 100 * fraction << "%  " << std::scientific
           << std::setprecision(2) << rate << " particle-steps/s  ETA "
-          << format_seconds(fraction > 0 ? elapsed * (1 - fraction) / fraction : 0) << std::defaultfloat << std::endl;  // flushed: batch jobs log to files
+          << format_seconds(done > 0 ? elapsed * (1 - fraction) / done : 0) << std::defaultfloat << std::endl;  // flushed: batch jobs log to files
     }
   }
 
-  summary.final_totals = diagnostics.compute(solver.particles());
-  if (!last_state_written) write_output(t, summary.final_totals);
+  summary.final_totals = global_totals(diagnostics, solver);
+  if (!last_state_written && snapshots > 0) {
+    write_output(t, summary.final_totals);
+    ++next_snapshot;
+  }
+  write_checkpoint_now();
   summary.steps = solver.step_count();
   summary.end_time = t;
   summary.wall_seconds = wall.seconds();
-  summary.particle_steps_per_second = summary.wall_seconds > 0 ? double(n) * summary.steps / summary.wall_seconds : 0;
+  const long steps_run = summary.steps - first_step;
+  summary.particle_steps_per_second = summary.wall_seconds > 0 ? double(n) * steps_run / summary.wall_seconds : 0;
 
   log << "done: " << summary.steps << " steps to t = " << t << " in " << format_seconds(summary.wall_seconds)
       << ", " << std::scientific << std::setprecision(3) << summary.particle_steps_per_second << std::defaultfloat
-      << " particle-steps/s\n";
+      << " particle-steps/s";
+  if (context.distributed()) log << " on " << context.size() << " ranks";
+  log << "\n";
   print_totals(log, "final", summary.final_totals, summary.initial_totals);
-  print_timer_table(log, solver.timers(), summary.steps);
+  if (context.distributed()) log << "\n(phase times of rank 0)";
+  print_timer_table(log, solver.timers(), steps_run);
   if (!summary.output_directory.empty()) {
 #ifdef MPMFLOW_HAVE_HDF5
     log << "output written to " << summary.output_directory << " (open " << writer->particles_xdmf_path()

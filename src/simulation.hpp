@@ -11,6 +11,9 @@ namespace mpmflow {
 struct RunOptions {
   double progress_interval_seconds = 2.0;  // wall time between progress lines
   bool print_banner = true;
+  std::string restart_file;  // continue from this checkpoint; empty: start at t = 0
+  std::string device_description;  // the GPU this rank drives, for the banner (empty on CPUs)
+  bool gpu_aware_mpi = false;      // hand device buffers to MPI directly (else staged through the host)
 };
 
 struct RunSummary {
@@ -27,7 +30,9 @@ struct RunSummary {
 // Throws ConfigError when the case asks for something this build cannot do (output without HDF5).
 void check_case_supported(const CaseConfig& config);
 
-// Runs the case to its end time (or max_steps), writing outputs as configured. Reports go to `log`.
+// Runs the case to its end time (or max_steps), writing outputs as configured. Reports go to `log`
+// on rank 0. Collective over MPI_COMM_WORLD when MPI is initialised: every rank calls it, each
+// running its slab. Errors that every rank meets together are CollectiveError.
 RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, std::ostream& log);
 
 // Banner lines: version, Kokkos version and execution space, threads, ranks.

@@ -97,6 +97,14 @@ struct UpdateThermodynamics {
   }
 };
 
+// The shape policy with the particle Views of now (migration may have reallocated them).
+LinearShape current_shape(const LinearShape& shape, const ParticleState&) { return shape; }
+GimpShape current_shape(GimpShape shape, const ParticleState& particles) {
+  shape.stretch_x = particles.domain_stretch_x;
+  shape.stretch_y = particles.domain_stretch_y;
+  return shape;
+}
+
 }  // namespace
 
 class Solver::Stepper {
@@ -142,9 +150,10 @@ void Solver::ScatterStepper<Duplication, Shape>::project_mass_and_momentum(Solve
   const NodeFieldsView state = solver.grid_fields_.state;
   Kokkos::deep_copy(state, real_t(0));
   p2g_begin(state_scatter_, state);
-  p2g("p2g_mass_momentum", shape_, pt.locations(), pt.count, state_scatter_, GridFields::mass,
+  p2g("p2g_mass_momentum", current_shape(shape_, pt), pt.locations(), pt.count, state_scatter_, GridFields::mass,
       MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y});
   p2g_end(state_scatter_, state);
+  solver.halo_->sum_shared_nodes(state, GridFields::mass, 3);
 }
 
 template <class Duplication, class Shape>
@@ -152,8 +161,8 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
   const CaseConfig& cfg = solver.config_;
   const GridSlab& slab = solver.slab_;
   const GridGeometry grid = slab.geometry;
-  const Shape shape = shape_;
   ParticleState& pt = solver.particles_;
+  const Shape shape = current_shape(shape_, pt);
   const GridFields& fields = solver.grid_fields_;
   PhaseTimers& timers = solver.timers_;
   const ParticleLocations where = pt.locations();
@@ -174,6 +183,10 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
                  MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y}, GridFields::force_x,
                  InternalForce{pt.pressure, pt.artificial_viscosity, pt.mass, pt.density});
     p2g_end(state_scatter_, state);
+  }
+  {  // the sums on the nodes this slab shares with its neighbours
+    auto t = timers.scope("halo_exchange");
+    solver.halo_->sum_shared_nodes(state, 0, GridFields::num_state_columns);
   }
   {  // 4. boundary conditions on momentum and force
     auto t = timers.scope("boundary_conditions");
@@ -202,6 +215,10 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
         Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
     p2g_end(remap_scatter_, remap);
   }
+  {
+    auto t = timers.scope("halo_exchange");
+    solver.halo_->sum_shared_nodes(remap, 0, GridFields::num_remap_columns);
+  }
   {  // 9. boundary conditions on the remapped momentum
     auto t = timers.scope("boundary_conditions");
     solver.grid_boundaries_.apply_to_momentum(remap, GridFields::remap_momentum_x, state);
@@ -223,16 +240,6 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
     Kokkos::parallel_for(
         "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, n),
         KOKKOS_LAMBDA(const index_t p) { boundaries.move(p, dt, particles); });
-  }
-  {  // cell map update (step x)
-    auto t = timers.scope("cell_map");
-    update_cell_map(grid, pt);
-  }
-  const int interval = cfg.numerics.reorder_interval;
-  if (interval > 0 && (solver.step_count_ + 1) % interval == 0) {  // 12. optional reordering
-    auto t = timers.scope("reorder");
-    CellSorter sorter(pt.cell, n, grid.num_cells());
-    pt.for_each_field([&](const auto& field) { sorter.apply(field); });
   }
 }
 
@@ -261,21 +268,59 @@ std::unique_ptr<Solver::Stepper> Solver::make_stepper() const {
   return std::make_unique<ScatterStepper<Duplication, LinearShape>>(grid_fields_, LinearShape{geo});
 }
 
+namespace {
+
+// The decomposition a lone slab stands for: itself, along x.
+SlabDecomposition single_slab(const GridSlab& slab) {
+  SlabDecomposition d;
+  d.axis = 0;
+  d.cell_begin = {0, slab.global_cells_x};
+  return d;
+}
+
+}  // namespace
+
 Solver::Solver(const CaseConfig& config, const GridSlab& slab, ParticleState particles)
     : config_(config),
+      context_(),
+      decomposition_(single_slab(slab)),
       slab_(slab),
-      particles_(std::move(particles)),
-      grid_fields_(slab.geometry),
-      obstacle_grid_(make_obstacle_grid(config.obstacles, slab)),
-      grid_boundaries_(config, slab, obstacle_grid_),
-      particle_boundaries_(config, slab, obstacle_grid_) {
-  if (use_duplicated(config.numerics.p2g))
+      particles_(std::move(particles)) {
+  if (context_.distributed()) context_ = ParallelContext::self();
+  build_slab_state();
+  const real_t total_mass = particles_.count > 0 ? blas_sum(particles_.mass) : real_t(0);
+  // A millionth of the mean particle mass: far below any node a particle really touches.
+  node_mass_threshold_ = particles_.count > 0 ? real_t(1e-6) * total_mass / particles_.count : real_t(0);
+}
+
+Solver::Solver(const CaseConfig& config, const ParallelContext& context, const SlabDecomposition& decomposition,
+               ParticleState particles)
+    : config_(config),
+      context_(context),
+      decomposition_(decomposition),
+      slab_(make_grid_slab(config.domain, decomposition.axis, decomposition.begin(context.rank()),
+                           decomposition.end(context.rank()))),
+      particles_(std::move(particles)) {
+  build_slab_state();
+  double mass_and_count[2] = {particles_.count > 0 ? double(blas_sum(particles_.mass)) : 0.0,
+                              double(particles_.count)};
+  context_.sum_in_place(mass_and_count, 2);
+  node_mass_threshold_ = mass_and_count[1] > 0 ? real_t(1e-6 * mass_and_count[0] / mass_and_count[1]) : real_t(0);
+  // Particles read from a checkpoint written on another rank count arrive anywhere.
+  migration_.migrate(particles_, slab_, decomposition_, context_);
+  update_cell_map(slab_.geometry, particles_);
+}
+
+void Solver::build_slab_state() {
+  grid_fields_ = GridFields(slab_.geometry);
+  obstacle_grid_ = make_obstacle_grid(config_.obstacles, slab_);
+  grid_boundaries_ = GridBoundaryConditions(config_, slab_, obstacle_grid_);
+  particle_boundaries_ = ParticleBoundaries(config_, slab_, obstacle_grid_);
+  halo_ = std::make_unique<HaloExchange>(slab_, decomposition_, context_, int(GridFields::num_state_columns));
+  if (use_duplicated(config_.numerics.p2g))
     stepper_ = make_stepper<Kokkos::Experimental::ScatterDuplicated>();
   else
     stepper_ = make_stepper<Kokkos::Experimental::ScatterNonDuplicated>();
-  // A millionth of the mean particle mass: far below any node a particle really touches.
-  const real_t total_mass = particles_.count > 0 ? blas_sum(particles_.mass) : real_t(0);
-  node_mass_threshold_ = particles_.count > 0 ? real_t(1e-6) * total_mass / particles_.count : real_t(0);
 }
 
 Solver::~Solver() = default;
@@ -303,13 +348,33 @@ real_t Solver::stable_time_step() {
         const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k)));
         return is_valid_gas_state(rho(k), p(k), speed) ? speed : invalid;
       });
-  if (!(max_speed < invalid)) report_invalid_particle();
+  const bool local_invalid = !(max_speed < invalid);
+  const real_t global_max_speed = static_cast<real_t>(context_.max(local_invalid ? double(invalid) : double(max_speed)));
+  if (!(global_max_speed < invalid)) report_invalid_particle(local_invalid);
   const real_t h = slab_.cell_size();
   // A gas at rest with zero pressure has no signal speed; any step is then stable.
-  return max_speed > 0 ? config_.time.cfl * h / max_speed : config_.time.end_time;
+  return global_max_speed > 0 ? config_.time.cfl * h / global_max_speed : config_.time.end_time;
 }
 
-void Solver::report_invalid_particle() const {
+void Solver::report_invalid_particle(bool local_invalid) const {
+  // Every rank stops with the same message: that of the lowest rank holding a bad particle.
+  const int reporting_rank = static_cast<int>(context_.min(local_invalid ? context_.rank() : context_.size()));
+  std::string message;
+  double where[3] = {0, 0, 0};  // id, x, y
+  if (context_.rank() == reporting_rank) {
+    try {
+      describe_invalid_particle();
+    } catch (const InvalidStateError& e) {
+      message = e.what();
+      where[0] = double(e.particle_id), where[1] = e.position_x, where[2] = e.position_y;
+    }
+  }
+  context_.broadcast(message, reporting_rank);
+  context_.broadcast(where, 3, reporting_rank);
+  throw InvalidStateError(message, step_count_, static_cast<particle_id_t>(where[0]), real_t(where[1]), real_t(where[2]));
+}
+
+void Solver::describe_invalid_particle() const {
   const auto x = particles_.position_x, y = particles_.position_y, vx = particles_.velocity_x,
              vy = particles_.velocity_y, p = particles_.pressure, rho = particles_.density;
   const real_t gamma = config_.physics.gamma;
@@ -338,7 +403,75 @@ void Solver::report_invalid_particle() const {
 
 void Solver::advance(real_t dt) {
   stepper_->advance(*this, dt);
+  {  // particles that left the slab go to their new owners
+    auto t = timers_.scope("migration");
+    migration_.migrate(particles_, slab_, decomposition_, context_);
+  }
+  {  // cell map update (step x)
+    auto t = timers_.scope("cell_map");
+    update_cell_map(slab_.geometry, particles_);
+  }
   ++step_count_;
+  const int interval = config_.numerics.reorder_interval;
+  if (interval > 0 && step_count_ % interval == 0) {  // 12. optional reordering
+    auto t = timers_.scope("reorder");
+    const index_t n = particles_.count;
+    CellSorter sorter(particles_.cell, n, slab_.geometry.num_cells());
+    particles_.for_each_field([&](const auto& field) { sorter.apply(field); });
+  }
+  const int balance_interval = config_.decomposition.balance_interval;
+  if (context_.distributed() && balance_interval > 0 && step_count_ % balance_interval == 0) {
+    auto t = timers_.scope("load_balance");
+    balance_load();
+  }
+}
+
+bool Solver::balance_load() {
+  if (!context_.distributed()) return false;
+  // Particles per global cell column (row for a y decomposition), from the cell map.
+  const int axis = decomposition_.axis;
+  const GridGeometry geo = slab_.geometry;
+  const index_t columns = decomposition_.cells_along_axis();
+  const index_t offset = axis == 0 ? slab_.node_offset_x : slab_.node_offset_y;
+  const index_t local_columns = axis == 0 ? geo.cells_x() : geo.cells_y();
+  Kokkos::View<long long*, Kokkos::LayoutLeft, DeviceType> local_counts("particles_per_column", local_columns);
+  {
+    Kokkos::Experimental::ScatterView<long long*, Kokkos::LayoutLeft, DeviceType> scatter(local_counts);
+    const IndexView cell = particles_.cell;
+    Kokkos::parallel_for(
+        "particles_per_column", Kokkos::RangePolicy<ExecutionSpace>(0, particles_.count),
+        KOKKOS_LAMBDA(const index_t p) {
+          auto access = scatter.access();
+          access(axis == 0 ? cell(p) % geo.cells_x() : cell(p) / geo.cells_x()) += 1;
+        });
+    Kokkos::Experimental::contribute(local_counts, scatter);
+  }
+  auto local_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), local_counts);
+  std::vector<long long> per_column(columns, 0);
+  for (index_t c = 0; c < local_columns; ++c)
+    if (c + offset >= 0 && c + offset < columns) per_column[c + offset] += local_host(c);
+  context_.sum_in_place(per_column.data(), static_cast<int>(columns));
+
+  auto per_rank = [&](const SlabDecomposition& d) {
+    std::vector<long long> counts(d.num_ranks(), 0);
+    for (int r = 0; r < d.num_ranks(); ++r)
+      for (index_t c = d.begin(r); c < d.end(r); ++c) counts[r] += per_column[c];
+    return counts;
+  };
+  const SlabDecomposition balanced = SlabDecomposition::balanced(axis, per_column, context_.size());
+  const double before = imbalance(per_rank(decomposition_)), after = imbalance(per_rank(balanced));
+  // Moving the slabs costs a migration and a rebuild of the grid: only for a real gain.
+  if (balanced == decomposition_ || after > before - 0.01) return false;
+
+  const GridSlab old_slab = slab_;
+  decomposition_ = balanced;
+  slab_ = make_grid_slab(config_.domain, axis, decomposition_.begin(context_.rank()),
+                         decomposition_.end(context_.rank()));
+  migration_.migrate(particles_, old_slab, decomposition_, context_);
+  build_slab_state();
+  update_cell_map(slab_.geometry, particles_);
+  balance_reports_.push_back({step_count_, before, after, decomposition_});
+  return true;
 }
 
 void Solver::project_to_grid() {

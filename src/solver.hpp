@@ -2,11 +2,15 @@
 // One explicit MPM step (the paper's Algorithm 1) over a grid slab and its particles.
 #include <memory>
 #include <stdexcept>
+#include <vector>
 
 #include "boundary_conditions.hpp"
 #include "case_config.hpp"
 #include "geometry.hpp"
 #include "grid.hpp"
+#include "halo_exchange.hpp"
+#include "parallel.hpp"
+#include "particle_migration.hpp"
 #include "particles.hpp"
 #include "phase_timers.hpp"
 
@@ -21,9 +25,22 @@ struct InvalidStateError : std::runtime_error {
   real_t position_x, position_y;
 };
 
+// One rebalancing of the slabs (Solver::advance, every decomposition/balance_interval steps).
+struct BalanceReport {
+  long step = 0;
+  double imbalance_before = 1;  // max / mean particles per rank
+  double imbalance_after = 1;
+  SlabDecomposition decomposition;  // the new slabs
+};
+
 class Solver {
  public:
+  // A single process owning `slab` (the whole grid, or a part of it in tests).
   Solver(const CaseConfig& config, const GridSlab& slab, ParticleState particles);
+  // Rank `context.rank()` of a distributed run: the slab `decomposition` gives it, with its
+  // particles (any particle outside the slab is sent to its owner at the first step).
+  Solver(const CaseConfig& config, const ParallelContext& context, const SlabDecomposition& decomposition,
+         ParticleState particles);
   ~Solver();
   Solver(const Solver&) = delete;
   Solver& operator=(const Solver&) = delete;
@@ -37,6 +54,18 @@ class Solver {
 
   // Advances particles and grid by dt: steps 2-12 of Algorithm 1.
   void advance(real_t dt);
+
+  // Total particles over all ranks.
+  long long global_particle_count() const { return context_.sum(particles_.count); }
+  const ParallelContext& context() const { return context_; }
+  const SlabDecomposition& decomposition() const { return decomposition_; }
+  // Rebalances the slabs now if that evens out the particle counts; returns whether it did.
+  // Collective. advance() calls it every decomposition/balance_interval steps.
+  bool balance_load();
+  // The rebalancings so far.
+  const std::vector<BalanceReport>& balance_reports() const { return balance_reports_; }
+  // Sets the step counter (restart from a checkpoint).
+  void set_step_count(long steps) { step_count_ = steps; }
 
   // One stable step from time t, shortened so as not to pass `target`; returns the new time
   // (exactly `target` when it is reached, so outputs land on their times).
@@ -78,12 +107,22 @@ class Solver {
   template <class Duplication, class Shape>
   class ScatterStepper;
 
+  // Throws InvalidStateError on every rank, with the first bad particle of the lowest rank that
+  // has one (collective; `local_invalid`: this rank has one). Public for CUDA's device lambdas.
+  [[noreturn]] void report_invalid_particle(bool local_invalid) const;
+  // Throws InvalidStateError describing this rank's first bad particle (which must exist).
+  [[noreturn]] void describe_invalid_particle() const;
+
  private:
   template <class Duplication>
   std::unique_ptr<Stepper> make_stepper() const;
-  [[noreturn]] void report_invalid_particle() const;
+  // (Re)builds everything that depends on the slab: grid fields, obstacles on the grid, boundary
+  // conditions, halo buffers and the P2G stepper.
+  void build_slab_state();
 
   CaseConfig config_;
+  ParallelContext context_;
+  SlabDecomposition decomposition_;
   GridSlab slab_;
   ParticleState particles_;
   GridFields grid_fields_;
@@ -91,6 +130,9 @@ class Solver {
   ObstacleGrid obstacle_grid_;
   GridBoundaryConditions grid_boundaries_;
   ParticleBoundaries particle_boundaries_;
+  std::unique_ptr<HaloExchange> halo_;
+  ParticleMigration migration_;
+  std::vector<BalanceReport> balance_reports_;
   real_t node_mass_threshold_ = 0;
   long step_count_ = 0;
   std::unique_ptr<Stepper> stepper_;

@@ -1,0 +1,111 @@
+#!/usr/bin/python3
+"""Strong and weak scaling of mpmflow under mpirun on CPUs.
+
+  benchmarks/mpi_scaling.py [--mpmflow build/openmp/bin/mpmflow] [--ranks 1,2,4] [--out DIR]
+
+Strong scaling: one case (default: the Mach 3 cylinder at 160 x 80 cells, 9 particles per cell) on
+1, 2, 4 ... ranks. Weak scaling: the grid grows along x with the rank count (cells_x = base x
+ranks), so every rank keeps the same share. Every run is a fixed number of steps from t = 0, one
+OpenMP thread per rank, no output. Prints particle-steps per second and parallel efficiency
+(rate on p ranks / (p x rate on 1 rank)) per rank count, and writes DIR/scaling.csv and
+DIR/scaling.png. Run it with Debian's python3 (/usr/bin/python3), which has matplotlib.
+On a machine with fewer cores than ranks the ranks share cores (--oversubscribe): the efficiency
+then measures the code's overhead plus the oversubscription, not the code alone.
+"""
+import argparse
+import csv
+import os
+import re
+import subprocess
+import sys
+
+
+def run(args, ranks, cells_x, cells_y):
+    env = dict(os.environ, OMP_NUM_THREADS=str(args.threads), OMP_PROC_BIND="false")
+    if os.geteuid() == 0:
+        env.update(OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    command = [args.mpiexec, "--oversubscribe", "-np", str(ranks), args.mpmflow, "run", args.case,
+               "--set", f"domain/cells_x={cells_x}", "--set", f"domain/cells_y={cells_y}",
+               "--set", f"particles/per_cell=[{args.ppc},{args.ppc}]", "--set", f"time/max_steps={args.steps}",
+               "--set", "time/end=100", "--set", "output/snapshots=0",
+               "--set", f"decomposition/balance_interval={args.balance_interval}",
+               "--progress-interval", "1000"]
+    result = subprocess.run(command, env=env, capture_output=True, text=True)
+    if result.returncode != 0:
+        sys.exit(f"mpi_scaling: failed: {' '.join(command)}\n{result.stdout}\n{result.stderr}")
+    done = re.search(r"done: (\d+) steps .* in ([\d.]+)s?.*?, ([\d.e+-]+) particle-steps/s", result.stdout)
+    particles = re.search(r"cells, (\d+) particles", result.stdout)
+    if not done or not particles:
+        sys.exit(f"mpi_scaling: cannot read the summary of: {' '.join(command)}\n{result.stdout}")
+    return int(particles.group(1)), int(done.group(1)), float(done.group(3))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--mpmflow", default="build/openmp/bin/mpmflow")
+    parser.add_argument("--mpiexec", default="mpirun")
+    parser.add_argument("--case", default="cases/cylinder_mach3.json")
+    parser.add_argument("--ranks", default="1,2,4")
+    parser.add_argument("--cells", default="160,80", help="strong scaling grid: cells_x,cells_y")
+    parser.add_argument("--weak-cells", default="60,80", help="weak scaling grid per rank: cells_x,cells_y")
+    parser.add_argument("--ppc", type=int, default=3, help="particles per cell along each axis")
+    parser.add_argument("--steps", type=int, default=100)
+    parser.add_argument("--threads", type=int, default=1, help="OpenMP threads per rank")
+    parser.add_argument("--balance-interval", type=int, default=20)
+    parser.add_argument("--out", default="benchmarks/results")
+    args = parser.parse_args()
+    ranks = [int(r) for r in args.ranks.split(",")]
+    strong_x, strong_y = (int(v) for v in args.cells.split(","))
+    weak_x, weak_y = (int(v) for v in args.weak_cells.split(","))
+    os.makedirs(args.out, exist_ok=True)
+
+    rows = []
+    for kind in ("strong", "weak"):
+        base = None
+        for p in ranks:
+            cells_x, cells_y = (strong_x, strong_y) if kind == "strong" else (weak_x * p, weak_y)
+            particles, steps, rate = run(args, p, cells_x, cells_y)
+            if base is None:
+                base = rate / ranks[0]
+            efficiency = rate / (p * base)
+            rows.append(dict(kind=kind, ranks=p, cells_x=cells_x, cells_y=cells_y, particles=particles, steps=steps,
+                             particle_steps_per_second=f"{rate:.4e}", efficiency=f"{efficiency:.3f}"))
+            print(f"{kind:6s} ranks {p:3d}  {cells_x} x {cells_y} cells  {particles} particles  "
+                  f"{rate:.3e} particle-steps/s  efficiency {efficiency:.2f}", flush=True)
+
+    csv_path = os.path.join(args.out, "scaling.csv")
+    with open(csv_path, "w", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        writer.writeheader()
+        writer.writerows(rows)
+    print(f"wrote {csv_path}")
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+    for kind, marker in (("strong", "o"), ("weak", "s")):
+        sel = [r for r in rows if r["kind"] == kind]
+        p = [r["ranks"] for r in sel]
+        axes[0].plot(p, [float(r["particle_steps_per_second"]) for r in sel], marker=marker, label=kind)
+        axes[1].plot(p, [float(r["efficiency"]) for r in sel], marker=marker, label=kind)
+    axes[0].set_xlabel("MPI ranks")
+    axes[0].set_ylabel("particle-steps per second")
+    axes[0].set_xscale("log", base=2)
+    axes[0].set_yscale("log")
+    axes[1].set_xlabel("MPI ranks")
+    axes[1].set_ylabel("parallel efficiency")
+    axes[1].set_xscale("log", base=2)
+    axes[1].set_ylim(0, 1.2)
+    for ax in axes:
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend()
+    fig.suptitle(f"mpmflow MPI scaling ({args.threads} thread(s) per rank, {os.cpu_count()} cores)")
+    fig.tight_layout()
+    png_path = os.path.join(args.out, "scaling.png")
+    fig.savefig(png_path, dpi=110)
+    print(f"wrote {png_path}")
+
+
+if __name__ == "__main__":
+    main()

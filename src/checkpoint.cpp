@@ -1,0 +1,152 @@
+#include "checkpoint.hpp"
+
+#ifdef MPMFLOW_HAVE_HDF5
+#include <algorithm>
+#include <filesystem>
+#include <iomanip>
+#include <sstream>
+#include <type_traits>
+#include <vector>
+
+#include "hdf5_io.hpp"
+#include "solver.hpp"
+
+namespace mpmflow {
+namespace {
+
+using h5::Handle;
+
+std::string checkpoint_prefix(const std::string& case_name) { return case_name + "_checkpoint_"; }
+
+}  // namespace
+
+std::string write_checkpoint(const std::string& directory, const std::string& case_name, const Solver& solver,
+                             const RunClock& clock, int keep) {
+  const ParallelContext& context = solver.context();
+  h5::require_parallel_if_distributed(context);
+  std::ostringstream name;
+  name << checkpoint_prefix(case_name) << std::setw(9) << std::setfill('0') << clock.step << ".h5";
+  const std::string path = directory + "/" + name.str();
+  const std::string temporary = path + ".tmp";
+  if (context.is_root()) std::filesystem::create_directories(directory);
+  context.barrier();
+
+  const ParticleState& pt = solver.particles();
+  const index_t n = pt.count;
+  const std::vector<long long> counts = context.all_gather(n);
+  const hsize_t offset = static_cast<hsize_t>(context.exclusive_prefix_sum(n));
+  const hsize_t total = static_cast<hsize_t>(context.sum(n));
+  {
+    Handle file(h5::create_file(temporary, context), H5Fclose, "create " + temporary);
+    h5::write_string_attribute(file, "case", case_name);
+    h5::write_attribute(file, "time", clock.time);
+    h5::write_attribute(file, "step", static_cast<double>(clock.step));
+    h5::write_attribute(file, "next_snapshot", clock.next_snapshot);
+    h5::write_attribute(file, "num_ranks", context.size());
+    h5::write_attribute(file, "cells_x", solver.slab().global_cells_x);
+    h5::write_attribute(file, "cells_y", solver.slab().global_cells_y);
+    h5::write_attribute(file, "decomposition_axis", solver.decomposition().axis);
+    h5::write_attribute(file, "initial_mass", clock.initial_totals.mass);
+    h5::write_attribute(file, "initial_momentum_x", clock.initial_totals.momentum_x);
+    h5::write_attribute(file, "initial_momentum_y", clock.initial_totals.momentum_y);
+    h5::write_attribute(file, "initial_kinetic_energy", clock.initial_totals.kinetic_energy);
+    h5::write_attribute(file, "initial_internal_energy", clock.initial_totals.internal_energy);
+    std::vector<long long> slab_begin(solver.decomposition().cell_begin.begin(), solver.decomposition().cell_begin.end());
+    h5::write_replicated(file, "slab_begin", slab_begin, context);
+    h5::write_replicated(file, "particles_per_rank", counts, context);
+    Handle group(H5Gcreate2(file, "particles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                 "create group particles");
+    pt.for_each_field([&](const auto& field) {
+      using View = std::decay_t<decltype(field)>;
+      if (std::is_same<View, IndexView>::value) return;  // the cell map is recomputed on restart
+      auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), field);
+      h5::write_block(group, field.label().c_str(), {total}, {offset}, {static_cast<hsize_t>(n)}, host.data(), context);
+    });
+  }
+  context.barrier();
+  if (context.is_root()) {
+    std::filesystem::rename(temporary, path);
+    if (keep > 0) {
+      std::vector<std::string> existing;
+      const std::string prefix = checkpoint_prefix(case_name);
+      for (const auto& entry : std::filesystem::directory_iterator(directory)) {
+        const std::string file = entry.path().filename().string();
+        if (file.rfind(prefix, 0) == 0 && file.size() > 3 && file.compare(file.size() - 3, 3, ".h5") == 0)
+          existing.push_back(file);
+      }
+      std::sort(existing.begin(), existing.end());  // zero-padded steps: oldest first
+      for (size_t k = 0; k + keep < existing.size(); ++k) std::filesystem::remove(directory + "/" + existing[k]);
+    }
+  }
+  context.barrier();
+  return path;
+}
+
+RestartState read_checkpoint(const std::string& path, const CaseConfig& config, const ParallelContext& context) {
+  h5::require_parallel_if_distributed(context);
+  if (!std::filesystem::exists(path)) throw CollectiveError("--restart " + path + ": no such checkpoint file");
+  RestartState restart;
+  restart.path = path;
+  try {
+    Handle file(h5::open_file(path, context), H5Fclose, "open " + path);
+    const std::string case_name = h5::read_string_attribute(file, "case");
+    const long cells_x = static_cast<long>(h5::read_attribute(file, "cells_x"));
+    const long cells_y = static_cast<long>(h5::read_attribute(file, "cells_y"));
+    if (case_name != config.name || cells_x != config.domain.cells_x || cells_y != config.domain.cells_y)
+      throw CollectiveError("--restart " + path + ": the checkpoint is of case '" + case_name + "' on " +
+                            std::to_string(cells_x) + " x " + std::to_string(cells_y) + " cells; expected case '" +
+                            config.name + "' on " + std::to_string(config.domain.cells_x) + " x " +
+                            std::to_string(config.domain.cells_y) + " cells (" + config.source + ")");
+    RunClock& clock = restart.clock;
+    clock.time = h5::read_attribute(file, "time");
+    clock.step = static_cast<long>(h5::read_attribute(file, "step"));
+    clock.next_snapshot = static_cast<int>(h5::read_attribute(file, "next_snapshot"));
+    clock.initial_totals.mass = h5::read_attribute(file, "initial_mass");
+    clock.initial_totals.momentum_x = h5::read_attribute(file, "initial_momentum_x");
+    clock.initial_totals.momentum_y = h5::read_attribute(file, "initial_momentum_y");
+    clock.initial_totals.kinetic_energy = h5::read_attribute(file, "initial_kinetic_energy");
+    clock.initial_totals.internal_energy = h5::read_attribute(file, "initial_internal_energy");
+    const int written_ranks = static_cast<int>(h5::read_attribute(file, "num_ranks"));
+    const int axis = static_cast<int>(h5::read_attribute(file, "decomposition_axis"));
+    const auto counts = h5::read_rows<long long>(file, "particles_per_rank", 0, written_ranks, context);
+    const auto slab_begin = h5::read_rows<long long>(file, "slab_begin", 0, written_ranks + 1, context);
+
+    hsize_t offset = 0, count = 0;
+    if (written_ranks == context.size() && axis == config.decomposition.axis) {
+      // The same slabs and the same particles per rank, in the same order.
+      restart.decomposition.axis = axis;
+      restart.decomposition.cell_begin.assign(slab_begin.begin(), slab_begin.end());
+      for (int r = 0; r < context.rank(); ++r) offset += counts[r];
+      count = counts[context.rank()];
+    } else {
+      restart.decomposition = SlabDecomposition::even(config, context.size());
+      long long total = 0;
+      for (long long c : counts) total += c;
+      const long long share = total / context.size(), extra = total % context.size();
+      const int r = context.rank();
+      offset = r * share + std::min<long long>(r, extra);
+      count = share + (r < extra ? 1 : 0);
+    }
+    Handle group(H5Gopen2(file, "particles", H5P_DEFAULT), H5Gclose, "open group particles");
+    ParticleState particles(static_cast<index_t>(count));
+    particles.for_each_field([&](const auto& field) {
+      using View = std::decay_t<decltype(field)>;
+      if (std::is_same<View, IndexView>::value) return;
+      using Value = typename View::non_const_value_type;
+      const std::vector<Value> values = h5::read_rows<Value>(group, field.label().c_str(), offset, count, context);
+      Kokkos::View<Value*, Kokkos::HostSpace, Kokkos::MemoryTraits<Kokkos::Unmanaged>> host(
+          const_cast<Value*>(values.data()), values.size());
+      Kokkos::deep_copy(field, host);
+    });
+    restart.particles = particles;
+  } catch (const CollectiveError&) {
+    throw;
+  } catch (const std::exception& e) {
+    // Every rank opens the same file and fails alike.
+    throw CollectiveError("--restart " + path + ": not a readable mpmflow checkpoint: " + e.what());
+  }
+  return restart;
+}
+
+}  // namespace mpmflow
+#endif

@@ -1,0 +1,45 @@
+#pragma once
+// Checkpoints: the whole particle state of every rank, the slabs and the run's clock, in one HDF5
+// file written by all ranks together, under a temporary name and renamed when complete (a run
+// killed at any moment leaves the previous checkpoint intact).
+//
+// A restart on the same rank count takes back the same slabs and, on every rank, the same
+// particles in the same order, so it continues bitwise as the uninterrupted run would have. On
+// another rank count the particles are read in equal chunks and migrated to the owners of their
+// cells: the same run up to round-off (sums in another order).
+#include <string>
+
+#include "diagnostics.hpp"
+#include "parallel.hpp"
+#include "particles.hpp"
+
+namespace mpmflow {
+
+class Solver;
+
+struct RunClock {
+  double time = 0;
+  long step = 0;
+  int next_snapshot = 0;            // index of the next snapshot to write
+  ConservationTotals initial_totals;  // of t = 0, for the drift reports
+};
+
+struct RestartState {
+  RunClock clock;
+  SlabDecomposition decomposition;
+  ParticleState particles;  // this rank's share, maybe not yet on their owners
+  std::string path;
+};
+
+#ifdef MPMFLOW_HAVE_HDF5
+// Writes <directory>/<case>_checkpoint_<step>.h5 (collective) and deletes all but the newest
+// `keep` checkpoints of the case (0: keeps all). Returns the path.
+std::string write_checkpoint(const std::string& directory, const std::string& case_name, const Solver& solver,
+                             const RunClock& clock, int keep);
+
+// Reads a checkpoint of `config`'s case (collective). Throws CollectiveError when the file is
+// missing, unreadable or was written for another grid.
+RestartState read_checkpoint(const std::string& path, const CaseConfig& config, const ParallelContext& context);
+#endif
+
+}  // namespace mpmflow

@@ -1,0 +1,182 @@
+#pragma once
+// Small HDF5 helpers shared by snapshots and checkpoints. One file is written (or read) by all
+// ranks together: with MPI-IO and collective transfers when the run is distributed, so each rank
+// writes its own block of every dataset and the file looks the same whatever the rank count.
+#ifdef MPMFLOW_HAVE_HDF5
+#include <hdf5.h>
+
+#include <cstdint>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "parallel.hpp"
+
+namespace mpmflow {
+namespace h5 {
+
+// Closes an HDF5 handle when it goes out of scope, and turns a failed call into an exception.
+class Handle {
+ public:
+  Handle(hid_t id, herr_t (*close)(hid_t), const std::string& what) : id_(id), close_(close) {
+    if (id_ < 0) throw std::runtime_error("HDF5: " + what + " failed");
+  }
+  ~Handle() { close_(id_); }
+  Handle(const Handle&) = delete;
+  Handle& operator=(const Handle&) = delete;
+  operator hid_t() const { return id_; }
+
+ private:
+  hid_t id_;
+  herr_t (*close_)(hid_t);
+};
+
+template <class T>
+hid_t type_of() {
+  if (std::is_same<T, double>::value) return H5T_NATIVE_DOUBLE;
+  if (std::is_same<T, float>::value) return H5T_NATIVE_FLOAT;
+  if (std::is_same<T, std::int64_t>::value || std::is_same<T, long long>::value) return H5T_NATIVE_INT64;
+  return H5T_NATIVE_INT;
+}
+
+// True when this HDF5 can write one file from several ranks.
+constexpr bool is_parallel() {
+#ifdef H5_HAVE_PARALLEL
+  return true;
+#else
+  return false;
+#endif
+}
+
+// Throws CollectiveError (on every rank) when the run is distributed and HDF5 is serial.
+inline void require_parallel_if_distributed(const ParallelContext& context) {
+  if (context.distributed() && !is_parallel())
+    throw CollectiveError("this HDF5 library is serial, so a run on " + std::to_string(context.size()) +
+                          " ranks cannot write output or checkpoints; rebuild against parallel HDF5 "
+                          "(Debian: libhdf5-openmpi-dev) or set output/snapshots=0");
+}
+
+// File access for all ranks of `context`.
+inline hid_t file_access(const ParallelContext& context) {
+  hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+#if defined(H5_HAVE_PARALLEL) && defined(MPMFLOW_HAVE_MPI)
+  if (context.distributed()) H5Pset_fapl_mpio(fapl, context.comm(), MPI_INFO_NULL);
+#else
+  (void)context;
+#endif
+  return fapl;
+}
+
+inline hid_t create_file(const std::string& path, const ParallelContext& context) {
+  Handle fapl(file_access(context), H5Pclose, "file access list");
+  return H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+}
+
+inline hid_t open_file(const std::string& path, const ParallelContext& context) {
+  Handle fapl(file_access(context), H5Pclose, "file access list");
+  return H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl);
+}
+
+inline hid_t transfer(const ParallelContext& context) {
+  hid_t dxpl = H5Pcreate(H5P_DATASET_XFER);
+#if defined(H5_HAVE_PARALLEL) && defined(MPMFLOW_HAVE_MPI)
+  if (context.distributed()) H5Pset_dxpl_mpio(dxpl, H5FD_MPIO_COLLECTIVE);
+#else
+  (void)context;
+#endif
+  return dxpl;
+}
+
+// Dataset `name` of `global_dims`; this rank writes the block at `offset` of size `block`
+// (possibly empty). Collective.
+template <class T>
+void write_block(hid_t parent, const char* name, const std::vector<hsize_t>& global_dims,
+                 const std::vector<hsize_t>& offset, const std::vector<hsize_t>& block, const T* data,
+                 const ParallelContext& context) {
+  const int rank = static_cast<int>(global_dims.size());
+  Handle file_space(H5Screate_simple(rank, global_dims.data(), nullptr), H5Sclose, std::string("dataspace of ") + name);
+  Handle set(H5Dcreate2(parent, name, type_of<T>(), file_space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose,
+             std::string("create dataset ") + name);
+  hsize_t elements = 1;
+  for (hsize_t b : block) elements *= b;
+  Handle memory_space(H5Screate_simple(rank, block.data(), nullptr), H5Sclose, "memory dataspace");
+  if (elements == 0) {
+    H5Sselect_none(file_space);
+    H5Sselect_none(memory_space);
+  } else {
+    H5Sselect_hyperslab(file_space, H5S_SELECT_SET, offset.data(), nullptr, block.data(), nullptr);
+  }
+  Handle dxpl(transfer(context), H5Pclose, "transfer list");
+  if (H5Dwrite(set, type_of<T>(), memory_space, file_space, dxpl, data) < 0)
+    throw std::runtime_error(std::string("HDF5: write dataset ") + name + " failed");
+}
+
+// A dataset written whole by every rank alike (small: attributes-like arrays).
+template <class T>
+void write_replicated(hid_t parent, const char* name, const std::vector<T>& values, const ParallelContext& context) {
+  const std::vector<hsize_t> dims = {values.size()};
+  const bool root = context.is_root();
+  write_block(parent, name, dims, {0}, {root ? values.size() : 0}, values.data(), context);
+}
+
+// Reads rows [offset, offset + count) of a 1D dataset. Collective.
+template <class T>
+std::vector<T> read_rows(hid_t parent, const char* name, hsize_t offset, hsize_t count, const ParallelContext& context) {
+  Handle set(H5Dopen2(parent, name, H5P_DEFAULT), H5Dclose, std::string("open dataset ") + name);
+  Handle file_space(H5Dget_space(set), H5Sclose, std::string("dataspace of ") + name);
+  Handle memory_space(H5Screate_simple(1, &count, nullptr), H5Sclose, "memory dataspace");
+  std::vector<T> values(count);
+  if (count == 0) {
+    H5Sselect_none(file_space);
+    H5Sselect_none(memory_space);
+  } else {
+    H5Sselect_hyperslab(file_space, H5S_SELECT_SET, &offset, nullptr, &count, nullptr);
+  }
+  Handle dxpl(transfer(context), H5Pclose, "transfer list");
+  if (H5Dread(set, type_of<T>(), memory_space, file_space, dxpl, values.data()) < 0)
+    throw std::runtime_error(std::string("HDF5: read dataset ") + name + " failed");
+  return values;
+}
+
+inline hsize_t dataset_length(hid_t parent, const char* name) {
+  Handle set(H5Dopen2(parent, name, H5P_DEFAULT), H5Dclose, std::string("open dataset ") + name);
+  Handle space(H5Dget_space(set), H5Sclose, std::string("dataspace of ") + name);
+  hsize_t dims[2] = {0, 0};
+  H5Sget_simple_extent_dims(space, dims, nullptr);
+  return dims[0];
+}
+
+inline void write_attribute(hid_t parent, const char* name, double value) {
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose, "scalar dataspace");
+  Handle attr(H5Acreate2(parent, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+              std::string("create attribute ") + name);
+  H5Awrite(attr, H5T_NATIVE_DOUBLE, &value);
+}
+
+inline void write_string_attribute(hid_t parent, const char* name, const std::string& value) {
+  Handle type(H5Tcopy(H5T_C_S1), H5Tclose, "string type");
+  H5Tset_size(type, value.size() + 1);
+  Handle space(H5Screate(H5S_SCALAR), H5Sclose, "scalar dataspace");
+  Handle attr(H5Acreate2(parent, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+              std::string("create attribute ") + name);
+  H5Awrite(attr, type, value.c_str());
+}
+
+inline double read_attribute(hid_t parent, const char* name) {
+  Handle attr(H5Aopen(parent, name, H5P_DEFAULT), H5Aclose, std::string("open attribute ") + name);
+  double value = 0;
+  if (H5Aread(attr, H5T_NATIVE_DOUBLE, &value) < 0) throw std::runtime_error(std::string("HDF5: read attribute ") + name);
+  return value;
+}
+
+inline std::string read_string_attribute(hid_t parent, const char* name) {
+  Handle attr(H5Aopen(parent, name, H5P_DEFAULT), H5Aclose, std::string("open attribute ") + name);
+  Handle type(H5Aget_type(attr), H5Tclose, "attribute type");
+  std::string value(H5Tget_size(type), '\0');
+  if (H5Aread(attr, type, &value[0]) < 0) throw std::runtime_error(std::string("HDF5: read attribute ") + name);
+  return value.substr(0, value.find('\0'));
+}
+
+}  // namespace h5
+}  // namespace mpmflow
+#endif

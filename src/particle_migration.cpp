@@ -1,0 +1,205 @@
+#include "particle_migration.hpp"
+
+#include <type_traits>
+#include <vector>
+
+namespace mpmflow {
+namespace {
+
+using HostIndexView = Kokkos::View<index_t*, Kokkos::HostSpace>;
+
+// The particle's global cell along the decomposition axis, computed from the slab it was in with
+// the same arithmetic as GridGeometry::cell_of, clamped to the domain.
+struct GlobalCellAlongAxis {
+  GridGeometry geometry;
+  int axis;
+  index_t node_offset;  // global index of local node 0 along the axis
+  index_t global_cells;
+  KOKKOS_INLINE_FUNCTION index_t operator()(real_t x, real_t y) const {
+    const real_t local = axis == 0 ? GridGeometry::floor_div(x - geometry.origin_x, geometry.spacing_x)
+                                   : GridGeometry::floor_div(y - geometry.origin_y, geometry.spacing_y);
+    const index_t cell = static_cast<index_t>(local) + node_offset;
+    return cell < 0 ? 0 : (cell >= global_cells ? global_cells - 1 : cell);
+  }
+};
+
+void find_destinations(const ParticleState& pt, const GridSlab& slab, const SlabDecomposition& d,
+                       const IndexView& destination) {
+  const int axis = d.axis;
+  const GlobalCellAlongAxis global_cell{slab.geometry, axis, axis == 0 ? slab.node_offset_x : slab.node_offset_y,
+                                        axis == 0 ? slab.global_cells_x : slab.global_cells_y};
+  const int ranks = d.num_ranks();
+  Kokkos::View<index_t*, Kokkos::HostSpace> begin_host("slab_begin", ranks + 1);
+  for (int r = 0; r <= ranks; ++r) begin_host(r) = d.cell_begin[r];
+  const IndexView begin = Kokkos::create_mirror_view_and_copy(MemorySpace(), begin_host);
+  const RealView x = pt.position_x, y = pt.position_y;
+  Kokkos::parallel_for(
+      "migration_destination", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
+        const index_t cell = global_cell(x(p), y(p));
+        int lo = 0, hi = ranks;  // the last slab whose first cell is <= cell
+        while (hi - lo > 1) {
+          const int mid = (lo + hi) / 2;
+          if (begin(mid) <= cell) lo = mid;
+          else hi = mid;
+        }
+        destination(p) = lo;
+      });
+}
+
+// Indices p in [first, last) with keep(p) true, in increasing order.
+template <class Predicate>
+IndexView select_indices(const char* label, index_t first, index_t last, const Predicate& keep) {
+  index_t count = 0;
+  Kokkos::parallel_reduce(
+      label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
+      KOKKOS_LAMBDA(const index_t p, index_t& n) { n += keep(p) ? 1 : 0; }, count);
+  IndexView selected(std::string(label), static_cast<size_t>(count));
+  Kokkos::parallel_scan(
+      label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
+      KOKKOS_LAMBDA(const index_t p, index_t& offset, const bool final) {
+        if (keep(p)) {
+          if (final) selected(offset) = p;
+          ++offset;
+        }
+      });
+  return selected;
+}
+
+template <class T>
+constexpr bool is_real_field() {
+  return std::is_same<typename std::decay_t<T>::value_type, real_t>::value;
+}
+
+}  // namespace
+
+long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const SlabDecomposition& d,
+                                const ParallelContext& context) {
+  if (!context.distributed()) return 0;
+#ifdef MPMFLOW_HAVE_MPI
+  const int rank = context.rank(), ranks = context.size();
+  const index_t n = pt.count;
+  if (static_cast<index_t>(destination_.extent(0)) < n) destination_ = IndexView("migration_destination", pt.capacity());
+  const IndexView destination = destination_;
+  find_destinations(pt, slab, d, destination);
+  const IndexView leaving = select_indices(
+      "migration_leaving", 0, n, KOKKOS_LAMBDA(const index_t p) { return destination(p) != rank; });
+  const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
+
+  // Leaving particles grouped by destination, in index order within each group (a counting sort
+  // of the few leaving particles on the host).
+  auto leaving_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), leaving);
+  auto destination_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), destination);
+  std::vector<int> send_counts(ranks, 0), send_offsets(ranks + 1, 0);
+  for (index_t k = 0; k < num_leaving; ++k) ++send_counts[destination_host(leaving_host(k))];
+  for (int r = 0; r < ranks; ++r) send_offsets[r + 1] = send_offsets[r] + send_counts[r];
+  HostIndexView send_order_host("migration_send_order", num_leaving);
+  {
+    std::vector<int> next(send_offsets.begin(), send_offsets.end() - 1);
+    for (index_t k = 0; k < num_leaving; ++k) send_order_host(next[destination_host(leaving_host(k))]++) = leaving_host(k);
+  }
+  const IndexView send_order = Kokkos::create_mirror_view_and_copy(MemorySpace(), send_order_host);
+
+  // Pack: particle-major, the real fields of one particle side by side; ids apart.
+  int num_real_fields = 0;
+  pt.for_each_field([&](const auto& field) { num_real_fields += is_real_field<decltype(field)>() ? 1 : 0; });
+  const int F = num_real_fields;
+  RealView send_reals("migration_send_reals", static_cast<size_t>(num_leaving) * F);
+  ParticleIdView send_ids("migration_send_ids", num_leaving);
+  {
+    int f = 0;
+    pt.for_each_field([&](const auto& field) {
+      using View = std::decay_t<decltype(field)>;
+      if constexpr (is_real_field<View>()) {
+        const int column = f++;
+        Kokkos::parallel_for(
+            "migration_pack", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving),
+            KOKKOS_LAMBDA(const index_t s) { send_reals(static_cast<size_t>(s) * F + column) = field(send_order(s)); });
+      } else if constexpr (std::is_same<View, ParticleIdView>::value) {
+        Kokkos::parallel_for(
+            "migration_pack_id", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving),
+            KOKKOS_LAMBDA(const index_t s) { send_ids(s) = field(send_order(s)); });
+      }
+    });
+  }
+
+  // Counts, then data.
+  std::vector<int> receive_counts(ranks, 0), receive_offsets(ranks + 1, 0);
+  MPI_Alltoall(send_counts.data(), 1, MPI_INT, receive_counts.data(), 1, MPI_INT, context.comm());
+  for (int r = 0; r < ranks; ++r) receive_offsets[r + 1] = receive_offsets[r] + receive_counts[r];
+  const index_t num_arriving = receive_offsets[ranks];
+  RealView receive_reals("migration_receive_reals", static_cast<size_t>(num_arriving) * F);
+  ParticleIdView receive_ids("migration_receive_ids", num_arriving);
+  {
+    const bool direct =
+        context.gpu_aware || Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
+    auto send_reals_host = Kokkos::create_mirror_view(send_reals);
+    auto send_ids_host = Kokkos::create_mirror_view(send_ids);
+    auto receive_reals_host = Kokkos::create_mirror_view(receive_reals);
+    auto receive_ids_host = Kokkos::create_mirror_view(receive_ids);
+    if (!direct) {
+      Kokkos::deep_copy(send_reals_host, send_reals);
+      Kokkos::deep_copy(send_ids_host, send_ids);
+    } else {
+      Kokkos::fence();
+    }
+    auto scaled = [](const std::vector<int>& v, int factor) {
+      std::vector<int> out(v.size());
+      for (size_t k = 0; k < v.size(); ++k) out[k] = v[k] * factor;
+      return out;
+    };
+    const MPI_Datatype real_type = sizeof(real_t) == 8 ? MPI_DOUBLE : MPI_FLOAT;
+    MPI_Alltoallv(direct ? send_reals.data() : send_reals_host.data(), scaled(send_counts, F).data(),
+                  scaled(send_offsets, F).data(), real_type,
+                  direct ? receive_reals.data() : receive_reals_host.data(), scaled(receive_counts, F).data(),
+                  scaled(receive_offsets, F).data(), real_type, context.comm());
+    MPI_Alltoallv(direct ? send_ids.data() : send_ids_host.data(), send_counts.data(), send_offsets.data(),
+                  MPI_INT64_T, direct ? receive_ids.data() : receive_ids_host.data(), receive_counts.data(),
+                  receive_offsets.data(), MPI_INT64_T, context.comm());
+    if (!direct) {
+      Kokkos::deep_copy(receive_reals, receive_reals_host);
+      Kokkos::deep_copy(receive_ids, receive_ids_host);
+    }
+  }
+
+  // Close the holes: the leaving particles below the new count take the staying particles
+  // above it, both in index order.
+  const index_t staying = n - num_leaving;
+  const IndexView fillers = select_indices(
+      "migration_fillers", staying, n, KOKKOS_LAMBDA(const index_t p) { return destination(p) == rank; });
+  const index_t num_holes = static_cast<index_t>(fillers.extent(0));  // = leaving particles below `staying`
+  pt.for_each_field([&](const auto& field) {
+    Kokkos::parallel_for(
+        "migration_fill_holes", Kokkos::RangePolicy<ExecutionSpace>(0, num_holes),
+        KOKKOS_LAMBDA(const index_t k) { field(leaving(k)) = field(fillers(k)); });
+  });
+
+  // Append the arrivals.
+  const index_t new_count = staying + num_arriving;
+  if (new_count > pt.capacity()) pt.reserve(new_count + new_count / 8);  // room for the next arrivals
+  pt.count = new_count;
+  {
+    int f = 0;
+    pt.for_each_field([&](const auto& field) {
+      using View = std::decay_t<decltype(field)>;
+      if constexpr (is_real_field<View>()) {
+        const int column = f++;
+        Kokkos::parallel_for(
+            "migration_unpack", Kokkos::RangePolicy<ExecutionSpace>(0, num_arriving),
+            KOKKOS_LAMBDA(const index_t s) { field(staying + s) = receive_reals(static_cast<size_t>(s) * F + column); });
+      } else if constexpr (std::is_same<View, ParticleIdView>::value) {
+        Kokkos::parallel_for(
+            "migration_unpack_id", Kokkos::RangePolicy<ExecutionSpace>(0, num_arriving),
+            KOKKOS_LAMBDA(const index_t s) { field(staying + s) = receive_ids(s); });
+      }
+    });
+  }
+  return num_leaving;
+#else
+  (void)pt;
+  (void)slab;
+  (void)d;
+  return 0;
+#endif
+}
+
+}  // namespace mpmflow

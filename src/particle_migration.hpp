@@ -1,0 +1,28 @@
+#pragma once
+// Moves particles to the rank whose slab holds them: after every particle move (Algorithm 1,
+// step 11, including recycling, which may put a particle anywhere on the inflow side) and after
+// the slabs change (load balancing, restart on another rank count).
+//
+// Pack, exchange counts, exchange data, unpack, all on Kokkos Views; MPI sees host copies unless
+// the context asks for GPU-aware MPI. Deterministic: the particles leaving go in index order per
+// destination, the holes they leave are filled by the last staying particles in index order, and
+// arrivals are appended in (source rank, source order). A run therefore repeats bitwise.
+#include "parallel.hpp"
+#include "particles.hpp"
+
+namespace mpmflow {
+
+class ParticleMigration {
+ public:
+  // Sends every particle of `particles` whose cell belongs to another rank under `decomposition`
+  // to that rank and appends those received. `slab` is the slab the particles were last in (its
+  // geometry turns positions into global cells). Returns the number of particles this rank sent.
+  // Cell indices of the particles are left stale: the caller recomputes the cell map.
+  long migrate(ParticleState& particles, const GridSlab& slab, const SlabDecomposition& decomposition,
+               const ParallelContext& context);
+
+ private:
+  IndexView destination_;
+};
+
+}  // namespace mpmflow

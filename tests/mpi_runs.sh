@@ -1,0 +1,104 @@
+#!/bin/bash
+# Distributed-run tests, run by ctest (tests/CMakeLists.txt). Each runs mpmflow under mpirun at
+# several rank counts and checks the outputs with tools/compare_outputs.py (Debian's python3).
+#
+#   mpi_runs.sh TEST MPIEXEC MPMFLOW SOURCE_DIR WORK_DIR
+#
+# TEST: sod | cylinder | restart | errors. Open MPI needs --oversubscribe for more ranks than
+# cores, and refuses to run as root unless told that it is wanted (CI runs as root).
+set -euo pipefail
+test_name=$1 mpiexec=$2 mpmflow=$3 source_dir=$4 work=$5
+python=/usr/bin/python3
+compare="$python $source_dir/tools/compare_outputs.py"
+if [ "$(id -u)" = 0 ]; then export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1; fi
+export OMP_NUM_THREADS=1 OMP_PROC_BIND=false
+mpi_flags=()
+mpi_version=$("$mpiexec" --version 2>&1 || true)
+if [[ $mpi_version == *"Open MPI"* || $mpi_version == *"OpenRTE"* ]]; then mpi_flags=(--oversubscribe); fi
+rm -rf "$work"
+mkdir -p "$work"
+
+# run NP OUTPUT_DIR CASE [mpmflow options...]: mpmflow on NP ranks, its log in OUTPUT_DIR.log
+run() {
+  local np=$1 out=$2 case_file=$3
+  shift 3
+  if ! "$mpiexec" "${mpi_flags[@]}" -np "$np" "$mpmflow" run "$case_file" --output "$out" --progress-interval 1000 "$@" \
+      > "$out.log" 2>&1; then
+    echo "FAILED: mpirun -np $np mpmflow run $case_file $*"
+    cat "$out.log"
+    exit 1
+  fi
+}
+
+# The coarse cylinder: 60 x 30 cells, 4 random particles per cell, t = 0.5 (about 90 steps; round-off
+# differences between rank counts grow from 1e-16 to about 1e-12 by then, and to 1e-8 by t = 1, as
+# they do between 1 and 2 threads on one rank), slabs rebalanced every 10 steps.
+cylinder=("$source_dir/cases/cylinder_mach3.json" --set domain/cells_x=60 --set domain/cells_y=30
+          --set 'particles/per_cell=[2,2]' --set time/end=0.5 --set output/snapshots=4
+          --set decomposition/balance_interval=10)
+
+case $test_name in
+  sod)
+    for np in 1 2 4; do run $np "$work/np$np" "$source_dir/cases/sod.json"; done
+    for np in 2 4; do $compare "$work/np1" "$work/np$np" --all --tolerance 1e-10 | tail -2; done
+    ;;
+  cylinder)
+    for np in 1 2 4; do run $np "$work/np$np" "${cylinder[@]}"; done
+    # The slabs must really have moved, or the test would not cover rebalancing.
+    grep "load balance" "$work/np4.log" | head -3
+    grep -q "load balance" "$work/np4.log" || { echo "FAILED: no rebalancing in the 4-rank run"; exit 1; }
+    for np in 2 4; do $compare "$work/np1" "$work/np$np" --all --tolerance 1e-10 | tail -2; done
+    # Slabs along y instead (30 cells: 4 slabs of 7 or 8 rows).
+    run 4 "$work/np4y" "${cylinder[@]}" --set decomposition/axis=y
+    grep -q "slabs along y" "$work/np4y.log" || { echo "FAILED: not decomposed along y"; exit 1; }
+    $compare "$work/np1" "$work/np4y" --all --tolerance 1e-10 | tail -2
+    ;;
+  restart)
+    # Checkpoints every 25 steps; restarts from the one at step 50 (between outputs 2 and 3).
+    checkpoints=(--set output/checkpoint_interval=25 --set output/checkpoints_kept=0)
+    run 2 "$work/whole" "${cylinder[@]}" "${checkpoints[@]}"
+    checkpoint="$work/whole/cylinder_mach3_checkpoint_000000050.h5"
+    [ -f "$checkpoint" ] || { echo "FAILED: no checkpoint at step 50"; ls "$work/whole"; exit 1; }
+    [ -f "$work/whole/cylinder_mach3_checkpoint_000000025.h5" ] || { echo "FAILED: no checkpoint at step 25"; exit 1; }
+    ls "$work/whole" | grep -q '\.tmp$' && { echo "FAILED: a temporary file was left behind"; exit 1; }
+    for np in 2 1 4; do
+      mkdir -p "$work/restart$np"
+      cp "$work/whole/cylinder_mach3_00000"[012].h5 "$work/whole/diagnostics.csv" "$work/restart$np/"
+      run $np "$work/restart$np" "${cylinder[@]}" "${checkpoints[@]}" --restart "$checkpoint"
+      grep -q "restart from .*step 50" "$work/restart$np.log" || { echo "FAILED: no restart line"; exit 1; }
+    done
+    # Same rank count: bitwise, every output after the restart; other rank counts: round-off.
+    for step in 3 4; do $compare "$work/whole" "$work/restart2" --step $step --exact | tail -1; done
+    for np in 1 4; do $compare "$work/whole" "$work/restart$np" --step 4 --tolerance 1e-10 | tail -1; done
+    # The diagnostics continue where they were: the same rows as the uninterrupted run.
+    cmp "$work/whole/diagnostics.csv" "$work/restart2/diagnostics.csv"
+    # The XDMF series of the restarted run lists all five outputs.
+    [ "$(grep -c '<Time ' "$work/restart2/cylinder_mach3_particles.xmf")" = 5 ] || { echo "FAILED: XDMF series"; exit 1; }
+    ;;
+  errors)
+    # A bad case file: one message (from rank 0), exit code 2 from the job.
+    printf '{ "name": "bad", "domain": { "cells_x": "many" } }' > "$work/bad.json"
+    set +e
+    "$mpiexec" "${mpi_flags[@]}" -np 2 "$mpmflow" run "$work/bad.json" > "$work/bad.log" 2>&1
+    status=$?
+    set -e
+    cat "$work/bad.log" | grep "mpmflow: error" || true
+    [ $status -ne 0 ] || { echo "FAILED: exit status 0 for a bad case"; exit 1; }
+    [ "$(grep -c 'mpmflow: error' "$work/bad.log")" = 1 ] || { echo "FAILED: the error must be printed once"; exit 1; }
+    grep -q "bad.json: /domain" "$work/bad.log" || { echo "FAILED: the message must name the file and key"; exit 1; }
+    # More ranks than the grid allows (Sod has 100 cells along x: at most 33 slabs of 3 cells).
+    set +e
+    "$mpiexec" "${mpi_flags[@]}" -np 4 "$mpmflow" run "$source_dir/cases/sod.json" --set domain/cells_x=10 \
+      --output "$work/too_many" > "$work/too_many.log" 2>&1
+    status=$?
+    set -e
+    grep "mpmflow: error" "$work/too_many.log" || true
+    [ $status -ne 0 ] || { echo "FAILED: exit status 0 with too many ranks"; exit 1; }
+    [ "$(grep -c 'cannot be split among 4 ranks' "$work/too_many.log")" = 1 ] || { echo "FAILED: rank-count message"; exit 1; }
+    ;;
+  *)
+    echo "unknown test $test_name"
+    exit 2
+    ;;
+esac
+echo "PASSED: $test_name"
