@@ -51,6 +51,7 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
     h5::write_attribute(file, "initial_momentum_y", clock.initial_totals.momentum_y);
     h5::write_attribute(file, "initial_kinetic_energy", clock.initial_totals.kinetic_energy);
     h5::write_attribute(file, "initial_internal_energy", clock.initial_totals.internal_energy);
+    h5::write_attribute(file, "node_mass_threshold", solver.node_mass_threshold());
     std::vector<long long> slab_begin(solver.decomposition().cell_begin.begin(), solver.decomposition().cell_begin.end());
     h5::write_replicated(file, "slab_begin", slab_begin, context);
     h5::write_replicated(file, "particles_per_rank", counts, context);
@@ -106,6 +107,7 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
     clock.initial_totals.momentum_y = h5::read_attribute(file, "initial_momentum_y");
     clock.initial_totals.kinetic_energy = h5::read_attribute(file, "initial_kinetic_energy");
     clock.initial_totals.internal_energy = h5::read_attribute(file, "initial_internal_energy");
+    clock.node_mass_threshold = h5::read_attribute(file, "node_mass_threshold");
     const int written_ranks = static_cast<int>(h5::read_attribute(file, "num_ranks"));
     const int axis = static_cast<int>(h5::read_attribute(file, "decomposition_axis"));
     const auto counts = h5::read_rows<long long>(file, "particles_per_rank", 0, written_ranks, context);
@@ -140,6 +142,8 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
     });
     restart.particles = particles;
   } catch (const CollectiveError&) {
+    throw;
+  } catch (const ConfigError&) {  // too many ranks for the grid
     throw;
   } catch (const std::exception& e) {
     // Every rank opens the same file and fails alike.

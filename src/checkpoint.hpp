@@ -22,6 +22,7 @@ struct RunClock {
   long step = 0;
   int next_snapshot = 0;            // index of the next snapshot to write
   ConservationTotals initial_totals;  // of t = 0, for the drift reports
+  double node_mass_threshold = 0;     // the solver's, fixed at t = 0 (restored for a bitwise restart)
 };
 
 struct RestartState {

@@ -137,6 +137,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   }
   Solver solver(config, context, restart.decomposition, std::move(restart.particles));
   solver.set_step_count(restart.clock.step);
+  if (restarting) solver.set_node_mass_threshold(static_cast<real_t>(restart.clock.node_mass_threshold));
   DiagnosticsCalculator diagnostics(solver.particles().count);
   const long long n = solver.global_particle_count();
   const double end_time = config.time.end_time;
@@ -198,7 +199,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 #ifdef MPMFLOW_HAVE_HDF5
     if (checkpoint_interval <= 0 || last_checkpoint_step == solver.step_count()) return;
     auto scope = solver.timers().scope("checkpoint");
-    const RunClock clock{t, solver.step_count(), next_snapshot, summary.initial_totals};
+    const RunClock clock{t, solver.step_count(), next_snapshot, summary.initial_totals, solver.node_mass_threshold()};
     const std::string path =
         write_checkpoint(config.output.directory, config.name, solver, clock, config.output.checkpoints_kept);
     last_checkpoint_step = solver.step_count();

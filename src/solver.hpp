@@ -100,6 +100,9 @@ class Solver {
   // is treated as empty (no velocity, no acceleration), so nearly empty nodes at the edge of the
   // particle cloud cannot produce huge accelerations.
   real_t node_mass_threshold() const { return node_mass_threshold_; }
+  // Restores the threshold of the run a checkpoint came from (it is fixed from the particles at
+  // t = 0, and recycling changes particle masses, so recomputing it would change the run).
+  void set_node_mass_threshold(real_t threshold) { node_mass_threshold_ = threshold; }
 
   // The step itself, specialised on the P2G ScatterView duplication mode and the shape function.
   // Public so that device lambdas may be defined in its member functions (a CUDA requirement).
