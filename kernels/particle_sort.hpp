@@ -1,7 +1,11 @@
 #pragma once
 // Reordering of particle arrays by cell (Algorithm 1, step xii) with Kokkos::BinSort, so that
 // particles close in space are close in memory and the transfer kernels touch the grid in order.
+#include <Kokkos_ScatterView.hpp>
 #include <Kokkos_Sort.hpp>
+
+#include <cstdint>
+#include <string>
 
 #include "kernels/types.hpp"
 
@@ -26,6 +30,86 @@ class CellSorter {
 
  private:
   Kokkos::BinSort<IndexView, BinOp> sorter_;
+};
+
+}  // namespace mpmflow
+
+namespace mpmflow {
+
+// Particles grouped by cell, in increasing particle index within each cell: the same grouping
+// for any thread count (the coloured P2G and deterministic reordering depend on it). Kokkos'
+// BinSort places particles in their bins with atomic counters, in an order that depends on thread
+// timing; sorting within bins by the unique key (cell, particle index) makes the result unique.
+// The particles per cell are counted with a ScatterView (integer sums: exact in any order).
+class CellOrder {
+ public:
+  using KeyView = Kokkos::View<std::int64_t*, DeviceType>;
+
+  void build(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
+    if (static_cast<index_t>(keys_.extent(0)) < num_particles) {
+      keys_ = KeyView("cell_order_keys", num_particles);
+      particle_ = IndexView("cell_order_particle", num_particles);
+    }
+    if (static_cast<index_t>(cell_offset_.extent(0)) != num_cells + 1) {
+      cell_offset_ = IndexView("cell_order_offset", num_cells + 1);
+      cell_count_ = IndexView("cell_order_count", num_cells);
+    }
+    const KeyView keys = keys_;
+    const IndexView particle = particle_, offset = cell_offset_, count = cell_count_;
+    const std::int64_t n = num_particles > 0 ? num_particles : 1;
+    Kokkos::deep_copy(count, 0);
+    {
+      Kokkos::Experimental::ScatterView<index_t*, Kokkos::LayoutLeft, DeviceType> scatter(count);
+      Kokkos::parallel_for(
+          "cell_order_keys", Kokkos::RangePolicy<ExecutionSpace>(0, num_particles), KOKKOS_LAMBDA(const index_t p) {
+            keys(p) = static_cast<std::int64_t>(particle_cell(p)) * n + p;
+            auto access = scatter.access();
+            access(particle_cell(p)) += 1;
+          });
+      scatter.contribute_into(count);
+    }
+    if (num_particles > 0) {
+      // Keys below num_cells * n < 2^53 (checked by the caller's sizes), so the bin arithmetic,
+      // done in double, is monotone in the key: bins in key order, sorted within.
+      using BinOp = Kokkos::BinOp1D<KeyView>;
+      Kokkos::BinSort<KeyView, BinOp> sorter(keys, 0, num_particles, BinOp(num_cells, 0, std::int64_t(num_cells) * n),
+                                             /*sort_within_bins=*/true);
+      sorter.create_permute_vector();
+      const auto permutation = sorter.get_permute_vector();
+      Kokkos::parallel_for(
+          "cell_order_particles", Kokkos::RangePolicy<ExecutionSpace>(0, num_particles),
+          KOKKOS_LAMBDA(const index_t k) { particle(k) = static_cast<index_t>(permutation(k)); });
+    }
+    Kokkos::parallel_scan(
+        "cell_order_offsets", Kokkos::RangePolicy<ExecutionSpace>(0, num_cells + 1),
+        KOKKOS_LAMBDA(const index_t c, index_t& running, const bool final) {
+          if (final) offset(c) = running;
+          if (c < num_cells) running += count(c);
+        });
+    num_particles_ = num_particles;
+  }
+
+  // Reorders particle Views into the grouped order (deterministic Algorithm 1 step xii).
+  template <class ViewType>
+  void apply(const ViewType& view) const {
+    ViewType copy(std::string("cell_order_copy"), num_particles_);
+    const IndexView particle = particle_;
+    Kokkos::parallel_for(
+        "cell_order_permute", Kokkos::RangePolicy<ExecutionSpace>(0, num_particles_),
+        KOKKOS_LAMBDA(const index_t k) { copy(k) = view(particle(k)); });
+    Kokkos::deep_copy(Kokkos::subview(view, std::make_pair(index_t(0), num_particles_)), copy);
+  }
+
+  const IndexView& cell_offset() const { return cell_offset_; }
+  const IndexView& particle() const { return particle_; }
+  size_t bytes() const {
+    return keys_.span() * sizeof(std::int64_t) + (particle_.span() + cell_offset_.span() + cell_count_.span()) * sizeof(index_t);
+  }
+
+ private:
+  Kokkos::View<std::int64_t*, DeviceType> keys_;
+  IndexView particle_, cell_offset_, cell_count_;
+  index_t num_particles_ = 0;
 };
 
 }  // namespace mpmflow

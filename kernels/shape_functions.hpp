@@ -77,6 +77,8 @@ KOKKOS_INLINE_FUNCTION void gimp_weight_1d(real_t d, real_t h, real_t l, real_t&
 
 struct LinearShape {
   static constexpr int stencil_size = 4;
+  // Cells this far apart along an axis share no node (the stencil spans 2 node lines).
+  static constexpr int colour_period = 2;
   GridGeometry grid;
   KOKKOS_INLINE_FUNCTION Stencil<4> operator()(index_t /*particle*/, index_t cell, real_t x, real_t y) const {
     return q1_stencil(grid, cell, x, y);
@@ -85,6 +87,8 @@ struct LinearShape {
 
 struct GimpShape {
   static constexpr int stencil_size = 9;
+  // A particle of cell ci reaches node lines ci - 1 .. ci + 2: cells 4 apart share no node.
+  static constexpr int colour_period = 4;
   GridGeometry grid;
   real_t initial_half_length_x;  // the particle's half-size at stretch 1
   real_t initial_half_length_y;

@@ -15,9 +15,14 @@
 // The shape-function policy (kernels/shape_functions.hpp) gives each particle's stencil of nodes,
 // weights and weight gradients, so the same kernels serve linear MPM and GIMP.
 //
-// P2G and P2GD accumulate through a Kokkos ScatterView (duplicated or atomic, chosen by its type),
-// into columns [first_component, first_component + N) of a (node, component) View. No hand-written
-// atomics: the ScatterView decides how concurrent contributions to one node are combined.
+// P2G and P2GD accumulate into columns [first_component, first_component + N) of a (node,
+// component) View in one of two ways, chosen by the arguments' types. No hand-written atomics:
+//  - all particles at once (a particle count) through a Kokkos ScatterView, duplicated or atomic:
+//    the ScatterView decides how concurrent contributions to one node are combined;
+//  - cell colour by cell colour (ColouredCells) straight into the View (DirectNodeAccess): the
+//    cells of one colour are far enough apart that no two touch a common node, so each node is
+//    written by one thread at a time, in an order fixed by the colours and the cell order of the
+//    particles. Bitwise the same result for any thread count.
 #include <Kokkos_ScatterView.hpp>
 
 #include "kernels/shape_functions.hpp"
@@ -62,6 +67,25 @@ void p2g_end(ScatterViewType& scatter, const NodeFieldsView& target) {
   scatter.contribute_into(target);
 }
 
+// Particles grouped by cell for the coloured traversal (kernels/particle_sort.hpp builds it):
+// the particles of local cell c are particle(cell_offset(c)) .. particle(cell_offset(c + 1) - 1).
+struct ColouredCells {
+  IndexView cell_offset;
+  IndexView particle;
+  index_t cells_x = 0, cells_y = 0;
+};
+
+// A (node, component) View written in place: the accumulator of the coloured traversal.
+struct DirectNodeAccess {
+  NodeFieldsView target;
+  KOKKOS_INLINE_FUNCTION const DirectNodeAccess& access() const { return *this; }
+  KOKKOS_INLINE_FUNCTION real_t& operator()(index_t node, int component) const { return target(node, component); }
+};
+
+// The coloured traversal writes in place: nothing to prepare or combine.
+inline void p2g_begin(DirectNodeAccess&, const NodeFieldsView&) {}
+inline void p2g_end(DirectNodeAccess&, const NodeFieldsView&) {}
+
 // Runs body(p, stencil) for every particle p, with its stencil from the shape policy: the one
 // particle loop all four transfer kernels share.
 template <class Shape, class Body>
@@ -75,9 +99,37 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
       KOKKOS_LAMBDA(const index_t p) { body(p, shape(p, cell(p), x(p), y(p))); });
 }
 
+// The same, colour by colour: Shape::colour_period^2 colours of cells; within a colour, one thread
+// per cell walks its particles in order. A particle of cell (ci, cj) reaches nodes ci - r + 1 ..
+// ci + r (r = colour_period / 2), so cells colour_period apart share no node.
+template <class Shape, class Body>
+void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
+                               const ColouredCells& cells, const Body& body) {
+  const auto x = particles.x;
+  const auto y = particles.y;
+  const auto cell = particles.cell;
+  constexpr int period = Shape::colour_period;
+  for (int colour = 0; colour < period * period; ++colour) {
+    const index_t a = colour % period, b = colour / period;
+    const index_t columns = (cells.cells_x - a + period - 1) / period;
+    const index_t rows = (cells.cells_y - b + period - 1) / period;
+    if (columns <= 0 || rows <= 0) continue;
+    const IndexView offset = cells.cell_offset, order = cells.particle;
+    const index_t cells_x = cells.cells_x;
+    Kokkos::parallel_for(
+        label, Kokkos::RangePolicy<ExecutionSpace>(0, columns * rows), KOKKOS_LAMBDA(const index_t k) {
+          const index_t c = (a + period * (k % columns)) + cells_x * (b + period * (k / columns));
+          for (index_t s = offset(c); s < offset(c + 1); ++s) {
+            const index_t p = order(s);
+            body(p, shape(p, cell(p), x(p), y(p)));
+          }
+        });
+  }
+}
+
 // P2G (eq. 16): node(i, c) += sum_p F_c(p) phi_i(X_p).
-template <class Shape, class ScatterViewType, class ParticleFunctor>
-void p2g(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,
+template <class Shape, class ScatterViewType, class ParticleFunctor, class Traversal>
+void p2g(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& num_particles,
          ScatterViewType& scatter, int first_component, const ParticleFunctor& functor) {
   constexpr int N = ParticleFunctor::num_components;
   for_each_particle_stencil(
@@ -91,8 +143,8 @@ void p2g(const char* label, const Shape& shape, const ParticleLocations& particl
 }
 
 // P2GD (eq. 18): node(i, c) += sum_p G_c(p) . grad phi_i(X_p).
-template <class Shape, class ScatterViewType, class ParticleFunctor>
-void p2gd(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,
+template <class Shape, class ScatterViewType, class ParticleFunctor, class Traversal>
+void p2gd(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& num_particles,
           ScatterViewType& scatter, int first_component, const ParticleFunctor& functor) {
   constexpr int N = ParticleFunctor::num_components;
   for_each_particle_stencil(
@@ -109,9 +161,9 @@ void p2gd(const char* label, const Shape& shape, const ParticleLocations& partic
 // P2G and P2GD fused (Algorithm 1, step 3): one pass, one stencil evaluation per particle, for
 // node(i, value columns) += F(p) phi_i and node(i, vector columns) += G(p) . grad phi_i into the
 // same ScatterView. Worth it because the stencil (and for GIMP its weights) dominates both.
-template <class Shape, class ScatterViewType, class ValueFunctor, class VectorFunctor>
+template <class Shape, class ScatterViewType, class ValueFunctor, class VectorFunctor, class Traversal>
 void p2g_and_p2gd(const char* label, const Shape& shape, const ParticleLocations& particles,
-                  index_t num_particles, ScatterViewType& scatter, int first_value_component,
+                  const Traversal& num_particles, ScatterViewType& scatter, int first_value_component,
                   const ValueFunctor& value_functor, int first_vector_component,
                   const VectorFunctor& vector_functor) {
   constexpr int NV = ValueFunctor::num_components;

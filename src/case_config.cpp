@@ -438,7 +438,8 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     cfg.numerics.p2g = r.choice_or("p2g", P2GStrategy::automatic,
                                    {{"automatic", P2GStrategy::automatic},
                                     {"duplicated", P2GStrategy::duplicated},
-                                    {"atomic", P2GStrategy::atomic}});
+                                    {"atomic", P2GStrategy::atomic},
+                                    {"sorted", P2GStrategy::sorted}});
     cfg.numerics.shape_function = r.choice_or("shape_function", ShapeFunction::gimp,
                                               {{"linear", ShapeFunction::linear}, {"gimp", ShapeFunction::gimp}});
     r.finish();
@@ -532,6 +533,7 @@ const char* to_string(P2GStrategy strategy) {
     case P2GStrategy::automatic: return "automatic";
     case P2GStrategy::duplicated: return "duplicated";
     case P2GStrategy::atomic: return "atomic";
+    case P2GStrategy::sorted: return "sorted";
   }
   return "?";
 }

@@ -154,7 +154,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     log << "case " << config.name << " (" << config.source << "): " << config.domain.cells_x << " x "
         << config.domain.cells_y << " cells, " << n << " particles, t_end " << end_time << ", cfl "
         << config.time.cfl << "\n"
-        << "numerics: shape function " << to_string(config.numerics.shape_function) << ", P2G ScatterView "
+        << "numerics: shape function " << to_string(config.numerics.shape_function) << ", P2G "
         << to_string(solver.p2g_strategy()) << ", reorder every " << config.numerics.reorder_interval
         << " steps (0: never)\n";
     if (restarting)

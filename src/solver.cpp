@@ -116,48 +116,89 @@ class Solver::Stepper {
   virtual size_t scatter_copy_bytes() const = 0;
 };
 
-template <class Duplication, class Shape>
-class Solver::ScatterStepper final : public Solver::Stepper {
- public:
-  ScatterStepper(const GridFields& fields, const Shape& shape)
-      : state_scatter_(fields.state), remap_scatter_(fields.momentum_remap), shape_(shape) {}
+namespace {
 
-  P2GStrategy strategy() const override {
+// How the step's P2G passes accumulate (numerics/p2g). Through ScatterViews, duplicated (a copy
+// of the node fields per thread, summed at the end) or atomic: all particles at once.
+template <class Duplication>
+class ScatterAccumulation {
+ public:
+  explicit ScatterAccumulation(const GridFields& fields) : state_(fields.state), remap_(fields.momentum_remap) {}
+  void prepare(const ParticleState&, const GridGeometry&) {}
+  index_t traversal(const ParticleState& particles) const { return particles.count; }
+  NodeScatterView<Duplication>& state() { return state_; }
+  NodeScatterView<Duplication>& remap() { return remap_; }
+  P2GStrategy strategy() const {
     return std::is_same<Duplication, Kokkos::Experimental::ScatterDuplicated>::value ? P2GStrategy::duplicated
                                                                                      : P2GStrategy::atomic;
   }
-
-  void advance(Solver& solver, real_t dt) override;
-  void project_mass_and_momentum(Solver& solver) override;
-
   // A duplicated ScatterView holds one copy of its target per thread (the target itself aside).
-  size_t scatter_copy_bytes() const override {
+  size_t extra_bytes() const {
     if (!std::is_same<Duplication, Kokkos::Experimental::ScatterDuplicated>::value) return 0;
     const size_t copies = static_cast<size_t>(ExecutionSpace().concurrency());
-    return copies * sizeof(real_t) * (state_scatter_.subview().span() + remap_scatter_.subview().span());
+    return copies * sizeof(real_t) * (state_.subview().span() + remap_.subview().span());
   }
 
  private:
   // Kept alive across steps: creating a duplicated ScatterView allocates a copy per thread.
-  NodeScatterView<Duplication> state_scatter_;
-  NodeScatterView<Duplication> remap_scatter_;
+  NodeScatterView<Duplication> state_;
+  NodeScatterView<Duplication> remap_;
+};
+
+// Sorted and coloured: the particles grouped by cell (CellOrder, rebuilt every step since the
+// particles move), then P2G colour by colour straight into the node fields. No copies, no
+// atomics, and the same sums in the same order for any thread count: bitwise reproducible.
+class ColouredAccumulation {
+ public:
+  explicit ColouredAccumulation(const GridFields& fields) : state_{fields.state}, remap_{fields.momentum_remap} {}
+  void prepare(const ParticleState& particles, const GridGeometry& grid) {
+    order_.build(particles.cell, particles.count, grid.num_cells());
+    cells_ = {order_.cell_offset(), order_.particle(), grid.cells_x(), grid.cells_y()};
+  }
+  const ColouredCells& traversal(const ParticleState&) const { return cells_; }
+  DirectNodeAccess& state() { return state_; }
+  DirectNodeAccess& remap() { return remap_; }
+  P2GStrategy strategy() const { return P2GStrategy::sorted; }
+  size_t extra_bytes() const { return order_.bytes(); }
+
+ private:
+  DirectNodeAccess state_, remap_;
+  CellOrder order_;
+  ColouredCells cells_;
+};
+
+}  // namespace
+
+template <class Accumulation, class Shape>
+class Solver::ScatterStepper final : public Solver::Stepper {
+ public:
+  ScatterStepper(const GridFields& fields, const Shape& shape) : accumulation_(fields), shape_(shape) {}
+
+  P2GStrategy strategy() const override { return accumulation_.strategy(); }
+  void advance(Solver& solver, real_t dt) override;
+  void project_mass_and_momentum(Solver& solver) override;
+  size_t scatter_copy_bytes() const override { return accumulation_.extra_bytes(); }
+
+ private:
+  Accumulation accumulation_;
   Shape shape_;
 };
 
-template <class Duplication, class Shape>
-void Solver::ScatterStepper<Duplication, Shape>::project_mass_and_momentum(Solver& solver) {
+template <class Accumulation, class Shape>
+void Solver::ScatterStepper<Accumulation, Shape>::project_mass_and_momentum(Solver& solver) {
   const ParticleState& pt = solver.particles_;
   const NodeFieldsView state = solver.grid_fields_.state;
   Kokkos::deep_copy(state, real_t(0));
-  p2g_begin(state_scatter_, state);
-  p2g("p2g_mass_momentum", current_shape(shape_, pt), pt.locations(), pt.count, state_scatter_, GridFields::mass,
-      MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y});
-  p2g_end(state_scatter_, state);
+  accumulation_.prepare(pt, solver.slab_.geometry);
+  p2g_begin(accumulation_.state(), state);
+  p2g("p2g_mass_momentum", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
+      accumulation_.state(), GridFields::mass, MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y});
+  p2g_end(accumulation_.state(), state);
   solver.halo_->sum_shared_nodes(state, GridFields::mass, 3);
 }
 
-template <class Duplication, class Shape>
-void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t dt) {
+template <class Accumulation, class Shape>
+void Solver::ScatterStepper<Accumulation, Shape>::advance(Solver& solver, real_t dt) {
   const CaseConfig& cfg = solver.config_;
   const GridSlab& slab = solver.slab_;
   const GridGeometry grid = slab.geometry;
@@ -177,12 +218,14 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
   }
   {  // 3. mass, momentum and force P2G
     auto t = timers.scope("p2g_mass_momentum_force");
-    p2g_begin(state_scatter_, state);
+    accumulation_.prepare(pt, grid);
+    p2g_begin(accumulation_.state(), state);
     // Fused: the paper's P2G(M), P2G(M V) and P2GD((P + Q) M / rho) in one pass over the particles.
-    p2g_and_p2gd("p2g_mass_momentum_force", shape, where, n, state_scatter_, GridFields::mass,
+    p2g_and_p2gd("p2g_mass_momentum_force", shape, where, accumulation_.traversal(pt), accumulation_.state(),
+                 GridFields::mass,
                  MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y}, GridFields::force_x,
                  InternalForce{pt.pressure, pt.artificial_viscosity, pt.mass, pt.density});
-    p2g_end(state_scatter_, state);
+    p2g_end(accumulation_.state(), state);
   }
   {  // the sums on the nodes this slab shares with its neighbours
     auto t = timers.scope("halo_exchange");
@@ -210,10 +253,10 @@ void Solver::ScatterStepper<Duplication, Shape>::advance(Solver& solver, real_t 
   }
   {  // 8. momentum P2G with the updated particle velocity
     auto t = timers.scope("p2g_momentum_remap");
-    p2g_begin(remap_scatter_, remap);
-    p2g("p2g_momentum_remap", shape, where, n, remap_scatter_, GridFields::remap_momentum_x,
-        Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
-    p2g_end(remap_scatter_, remap);
+    p2g_begin(accumulation_.remap(), remap);
+    p2g("p2g_momentum_remap", shape, where, accumulation_.traversal(pt), accumulation_.remap(),
+        GridFields::remap_momentum_x, Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
+    p2g_end(accumulation_.remap(), remap);
   }
   {
     auto t = timers.scope("halo_exchange");
@@ -255,7 +298,7 @@ bool use_duplicated(P2GStrategy strategy) {
 
 }  // namespace
 
-template <class Duplication>
+template <class Accumulation>
 std::unique_ptr<Solver::Stepper> Solver::make_stepper() const {
   const GridGeometry& geo = slab_.geometry;
   if (config_.numerics.shape_function == ShapeFunction::gimp) {
@@ -263,12 +306,21 @@ std::unique_ptr<Solver::Stepper> Solver::make_stepper() const {
     const GimpShape shape{geo, geo.spacing_x / (2 * config_.particles.per_cell_x),
                           geo.spacing_y / (2 * config_.particles.per_cell_y), particles_.domain_stretch_x,
                           particles_.domain_stretch_y};
-    return std::make_unique<ScatterStepper<Duplication, GimpShape>>(grid_fields_, shape);
+    return std::make_unique<ScatterStepper<Accumulation, GimpShape>>(grid_fields_, shape);
   }
-  return std::make_unique<ScatterStepper<Duplication, LinearShape>>(grid_fields_, LinearShape{geo});
+  return std::make_unique<ScatterStepper<Accumulation, LinearShape>>(grid_fields_, LinearShape{geo});
 }
 
 namespace {
+
+// Sum of the first n values, in index order on the host: the same for any thread count (a
+// parallel reduction's order depends on it), once at start-up.
+double sum_in_order(const RealView& values, index_t n) {
+  auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), values);
+  double sum = 0;
+  for (index_t k = 0; k < n; ++k) sum += host(k);
+  return sum;
+}
 
 // The decomposition a lone slab stands for: itself, along x.
 SlabDecomposition single_slab(const GridSlab& slab) {
@@ -288,7 +340,7 @@ Solver::Solver(const CaseConfig& config, const GridSlab& slab, ParticleState par
       particles_(std::move(particles)) {
   if (context_.distributed()) context_ = ParallelContext::self();
   build_slab_state();
-  const real_t total_mass = particles_.count > 0 ? blas_sum(particles_.mass) : real_t(0);
+  const real_t total_mass = static_cast<real_t>(sum_in_order(particles_.mass, particles_.count));
   // A millionth of the mean particle mass: far below any node a particle really touches.
   node_mass_threshold_ = particles_.count > 0 ? real_t(1e-6) * total_mass / particles_.count : real_t(0);
 }
@@ -302,7 +354,7 @@ Solver::Solver(const CaseConfig& config, const ParallelContext& context, const S
                            decomposition.end(context.rank()))),
       particles_(std::move(particles)) {
   build_slab_state();
-  double mass_and_count[2] = {particles_.count > 0 ? double(blas_sum(particles_.mass)) : 0.0,
+  double mass_and_count[2] = {sum_in_order(particles_.mass, particles_.count),
                               double(particles_.count)};
   context_.sum_in_place(mass_and_count, 2);
   node_mass_threshold_ = mass_and_count[1] > 0 ? real_t(1e-6 * mass_and_count[0] / mass_and_count[1]) : real_t(0);
@@ -317,10 +369,12 @@ void Solver::build_slab_state() {
   grid_boundaries_ = GridBoundaryConditions(config_, slab_, obstacle_grid_);
   particle_boundaries_ = ParticleBoundaries(config_, slab_, obstacle_grid_);
   halo_ = std::make_unique<HaloExchange>(slab_, decomposition_, context_, int(GridFields::num_state_columns));
-  if (use_duplicated(config_.numerics.p2g))
-    stepper_ = make_stepper<Kokkos::Experimental::ScatterDuplicated>();
+  if (config_.numerics.p2g == P2GStrategy::sorted)
+    stepper_ = make_stepper<ColouredAccumulation>();
+  else if (use_duplicated(config_.numerics.p2g))
+    stepper_ = make_stepper<ScatterAccumulation<Kokkos::Experimental::ScatterDuplicated>>();
   else
-    stepper_ = make_stepper<Kokkos::Experimental::ScatterNonDuplicated>();
+    stepper_ = make_stepper<ScatterAccumulation<Kokkos::Experimental::ScatterNonDuplicated>>();
 }
 
 Solver::~Solver() = default;
@@ -415,9 +469,10 @@ void Solver::advance(real_t dt) {
   const int interval = config_.numerics.reorder_interval;
   if (interval > 0 && step_count_ % interval == 0) {  // 12. optional reordering
     auto t = timers_.scope("reorder");
-    const index_t n = particles_.count;
-    CellSorter sorter(particles_.cell, n, slab_.geometry.num_cells());
-    particles_.for_each_field([&](const auto& field) { sorter.apply(field); });
+    // Grouped by cell, in index order within a cell: the same order on any thread count.
+    CellOrder order;
+    order.build(particles_.cell, particles_.count, slab_.geometry.num_cells());
+    particles_.for_each_field([&](const auto& field) { order.apply(field); });
   }
   const int balance_interval = config_.decomposition.balance_interval;
   if (context_.distributed() && balance_interval > 0 && step_count_ % balance_interval == 0) {

@@ -107,7 +107,7 @@ class Solver {
   // The step itself, specialised on the P2G ScatterView duplication mode and the shape function.
   // Public so that device lambdas may be defined in its member functions (a CUDA requirement).
   class Stepper;
-  template <class Duplication, class Shape>
+  template <class Accumulation, class Shape>
   class ScatterStepper;
 
   // Throws InvalidStateError on every rank, with the first bad particle of the lowest rank that
@@ -117,7 +117,7 @@ class Solver {
   [[noreturn]] void describe_invalid_particle() const;
 
  private:
-  template <class Duplication>
+  template <class Accumulation>
   std::unique_ptr<Stepper> make_stepper() const;
   // (Re)builds everything that depends on the slab: grid fields, obstacles on the grid, boundary
   // conditions, halo buffers and the P2G stepper.

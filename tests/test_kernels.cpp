@@ -1,11 +1,14 @@
 // Invariants of the Q1 shape functions and of the generic transfer kernels.
 #include <gtest/gtest.h>
 
+
+#include <algorithm>
 #include <random>
 #include <string>
 #include <type_traits>
 #include <vector>
 
+#include "kernels/particle_sort.hpp"
 #include "kernels/transfer_kernels.hpp"
 
 namespace mpmflow {
@@ -154,16 +157,30 @@ struct StoreGradient {
   }
 };
 
-// Runs P2G of `functor` into a fresh (nodes x columns) View with a ScatterView of mode D.
+// The sorted, coloured P2G (no ScatterView): the third accumulation mode under test.
+struct Coloured {};
+
+// Runs P2G of `functor` into a fresh (nodes x columns) View with a ScatterView of mode D, or
+// colour by colour for D = Coloured.
 template <class D, bool derivative, class Shape, class Functor>
 NodeFieldsView run_p2g(const Shape& shape, const DeviceParticles& d, int columns, const Functor& f) {
   NodeFieldsView fields("fields", shape.grid.num_nodes(), columns);
-  NodeScatterView<D> scatter(fields);
-  p2g_begin(scatter, fields);
-  if constexpr (derivative) p2gd("test_p2gd", shape, d.where, d.count, scatter, 0, f);
-  else p2g("test_p2g", shape, d.where, d.count, scatter, 0, f);
-  p2g_end(scatter, fields);
-  return fields;
+  if constexpr (std::is_same<D, Coloured>::value) {
+    CellOrder order;
+    order.build(d.where.cell, d.count, shape.grid.num_cells());
+    const ColouredCells cells{order.cell_offset(), order.particle(), shape.grid.cells_x(), shape.grid.cells_y()};
+    DirectNodeAccess direct{fields};
+    if constexpr (derivative) p2gd("test_p2gd", shape, d.where, cells, direct, 0, f);
+    else p2g("test_p2g", shape, d.where, cells, direct, 0, f);
+    return fields;
+  } else {
+    NodeScatterView<D> scatter(fields);
+    p2g_begin(scatter, fields);
+    if constexpr (derivative) p2gd("test_p2gd", shape, d.where, d.count, scatter, 0, f);
+    else p2g("test_p2g", shape, d.where, d.count, scatter, 0, f);
+    p2g_end(scatter, fields);
+    return fields;
+  }
 }
 
 // Every kernel test runs for each ScatterView mode and each shape function.
@@ -176,13 +193,14 @@ template <class C>
 class TransferKernels : public ::testing::Test {};
 using Dup = Kokkos::Experimental::ScatterDuplicated;
 using Atomic = Kokkos::Experimental::ScatterNonDuplicated;
-using Configs = ::testing::Types<Config<Dup, MakeLinear>, Config<Atomic, MakeLinear>, Config<Dup, MakeGimp>,
-                                 Config<Atomic, MakeGimp>>;
+using Configs = ::testing::Types<Config<Dup, MakeLinear>, Config<Atomic, MakeLinear>, Config<Coloured, MakeLinear>,
+                                 Config<Dup, MakeGimp>, Config<Atomic, MakeGimp>, Config<Coloured, MakeGimp>>;
 struct ConfigNames {
   template <class C>
   static std::string GetName(int) {
     const bool duplicated = std::is_same<typename C::Duplication, Dup>::value;
-    return std::string(C::MakeShape::name) + (duplicated ? "_duplicated" : "_atomic");
+    const bool coloured = std::is_same<typename C::Duplication, Coloured>::value;
+    return std::string(C::MakeShape::name) + (coloured ? "_sorted" : (duplicated ? "_duplicated" : "_atomic"));
   }
 };
 TYPED_TEST_SUITE(TransferKernels, Configs, ConfigNames);
@@ -269,6 +287,41 @@ TYPED_TEST(TransferKernels, P2GConservesMass) {
   for (int i = 0; i < g.num_nodes(); ++i) node_total += h(i, 0);
   for (double m : p.mass) particle_total += m;
   EXPECT_NEAR(node_total, particle_total, 1e-12 * particle_total);
+}
+
+TYPED_TEST(TransferKernels, P2GAgreesWithTheDuplicatedScatterView) {
+  // Every mode sums the same contributions, in its own order: equal to round-off.
+  const GridGeometry g = test_grid();
+  const DeviceParticles d = to_device(g, random_particles(g, 2000, 5));
+  const auto shape = TypeParam::MakeShape::make(g, d.count);
+  const MassAndLinearField f{d.mass, d.where.x, d.where.y};
+  auto mine = Kokkos::create_mirror_view_and_copy(
+      Kokkos::HostSpace(), run_p2g<typename TypeParam::Duplication, false>(shape, d, 2, f));
+  auto reference = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), run_p2g<Dup, false>(shape, d, 2, f));
+  double largest = 0;
+  for (int i = 0; i < g.num_nodes(); ++i) largest = std::max(largest, std::fabs(reference(i, 1)));
+  ASSERT_GT(largest, 0);
+  for (int i = 0; i < g.num_nodes(); ++i)
+    for (int c = 0; c < 2; ++c) EXPECT_NEAR(mine(i, c), reference(i, c), 1e-13 * largest) << "node " << i;
+}
+
+TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
+  const GridGeometry g = test_grid();
+  const DeviceParticles d = to_device(g, random_particles(g, 3000, 6));
+  CellOrder order;
+  order.build(d.where.cell, d.count, g.num_cells());
+  auto offset = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.cell_offset());
+  auto particle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.particle());
+  auto cell = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.cell);
+  ASSERT_EQ(offset(g.num_cells()), d.count);
+  std::vector<int> seen(d.count, 0);
+  for (index_t c = 0; c < g.num_cells(); ++c)
+    for (index_t s = offset(c); s < offset(c + 1); ++s) {
+      EXPECT_EQ(cell(particle(s)), c);
+      if (s > offset(c)) EXPECT_LT(particle(s - 1), particle(s));  // index order within the cell
+      ++seen[particle(s)];
+    }
+  for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
 }
 
 TYPED_TEST(TransferKernels, P2GThenG2PReproducesLinearFieldsExactly) {
