@@ -6,7 +6,6 @@
 
 #include "boundary_conditions.hpp"
 #include "gas_physics.hpp"
-#include "kernels/blas1.hpp"
 #include "kernels/particle_sort.hpp"
 #include "kernels/reductions.hpp"
 #include "kernels/transfer_kernels.hpp"
