@@ -34,8 +34,11 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
   const ParticleState& pt = solver.particles();
   const index_t n = pt.count;
   const std::vector<long long> counts = context.all_gather(n);
-  const hsize_t offset = static_cast<hsize_t>(context.exclusive_prefix_sum(n));
-  const hsize_t total = static_cast<hsize_t>(context.sum(n));
+  hsize_t offset = 0, total = 0;  // this rank's first row and the rows of all ranks
+  for (int r = 0; r < context.size(); ++r) {
+    if (r < context.rank()) offset += counts[r];
+    total += counts[r];
+  }
   {
     Handle file(h5::create_file(temporary, context), H5Fclose, "create " + temporary);
     h5::write_string_attribute(file, "case", case_name);

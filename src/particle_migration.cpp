@@ -65,9 +65,18 @@ IndexView select_indices(const char* label, index_t first, index_t last, const P
   return selected;
 }
 
-template <class T>
-constexpr bool is_real_field() {
-  return std::is_same<typename std::decay_t<T>::value_type, real_t>::value;
+// The fields a particle carries to another rank: real(field, column) for each real field, columns
+// counted from 0, and id(field) for the id (the cell map is recomputed on arrival). Returns the
+// number of real fields, so that pack and unpack agree on the layout by construction.
+template <class RealField, class IdField>
+int for_each_migrated_field(const ParticleState& pt, const RealField& real, const IdField& id) {
+  int column = 0;
+  pt.for_each_field([&](const auto& field) {
+    using View = std::decay_t<decltype(field)>;
+    if constexpr (std::is_same<typename View::value_type, real_t>::value) real(field, column++);
+    else if constexpr (std::is_same<View, ParticleIdView>::value) id(field);
+  });
+  return column;
 }
 
 }  // namespace
@@ -100,27 +109,21 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const IndexView send_order = Kokkos::create_mirror_view_and_copy(MemorySpace(), send_order_host);
 
   // Pack: particle-major, the real fields of one particle side by side; ids apart.
-  int num_real_fields = 0;
-  pt.for_each_field([&](const auto& field) { num_real_fields += is_real_field<decltype(field)>() ? 1 : 0; });
-  const int F = num_real_fields;
+  const int F = for_each_migrated_field(pt, [](const RealView&, int) {}, [](const ParticleIdView&) {});
   RealView send_reals("migration_send_reals", static_cast<size_t>(num_leaving) * F);
   ParticleIdView send_ids("migration_send_ids", num_leaving);
-  {
-    int f = 0;
-    pt.for_each_field([&](const auto& field) {
-      using View = std::decay_t<decltype(field)>;
-      if constexpr (is_real_field<View>()) {
-        const int column = f++;
+  for_each_migrated_field(
+      pt,
+      [&](const RealView& field, const int column) {
         Kokkos::parallel_for(
             "migration_pack", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving),
             KOKKOS_LAMBDA(const index_t s) { send_reals(static_cast<size_t>(s) * F + column) = field(send_order(s)); });
-      } else if constexpr (std::is_same<View, ParticleIdView>::value) {
+      },
+      [&](const ParticleIdView& field) {
         Kokkos::parallel_for(
             "migration_pack_id", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving),
             KOKKOS_LAMBDA(const index_t s) { send_ids(s) = field(send_order(s)); });
-      }
-    });
-  }
+      });
 
   // Counts, then data.
   std::vector<int> receive_counts(ranks, 0), receive_offsets(ranks + 1, 0);
@@ -177,22 +180,18 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const index_t new_count = staying + num_arriving;
   if (new_count > pt.capacity()) pt.reserve(new_count + new_count / 8);  // room for the next arrivals
   pt.count = new_count;
-  {
-    int f = 0;
-    pt.for_each_field([&](const auto& field) {
-      using View = std::decay_t<decltype(field)>;
-      if constexpr (is_real_field<View>()) {
-        const int column = f++;
+  for_each_migrated_field(
+      pt,
+      [&](const RealView& field, const int column) {
         Kokkos::parallel_for(
             "migration_unpack", Kokkos::RangePolicy<ExecutionSpace>(0, num_arriving),
             KOKKOS_LAMBDA(const index_t s) { field(staying + s) = receive_reals(static_cast<size_t>(s) * F + column); });
-      } else if constexpr (std::is_same<View, ParticleIdView>::value) {
+      },
+      [&](const ParticleIdView& field) {
         Kokkos::parallel_for(
             "migration_unpack_id", Kokkos::RangePolicy<ExecutionSpace>(0, num_arriving),
             KOKKOS_LAMBDA(const index_t s) { field(staying + s) = receive_ids(s); });
-      }
-    });
-  }
+      });
   return num_leaving;
 #else
   (void)pt;
