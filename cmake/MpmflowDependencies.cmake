@@ -14,6 +14,16 @@ else()
 endif()
 target_link_libraries(mpmflow_dependencies INTERFACE Kokkos::kokkos)
 
+# --- The host CPU's instruction set (a Kokkos configured with Kokkos_ARCH_* may add its own) -----
+if(MPMFLOW_ARCH_NATIVE)
+  include(CheckCXXCompilerFlag)
+  check_cxx_compiler_flag(-march=native MPMFLOW_COMPILER_HAS_MARCH_NATIVE)
+  if(NOT MPMFLOW_COMPILER_HAS_MARCH_NATIVE)
+    message(FATAL_ERROR "mpmflow: MPMFLOW_ARCH_NATIVE=ON but ${CMAKE_CXX_COMPILER} does not accept -march=native")
+  endif()
+  target_compile_options(mpmflow_dependencies INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-march=native>)
+endif()
+
 # --- Kokkos Kernels (BLAS-1 diagnostics); optional so a minimal build needs Kokkos alone -----
 if(MPMFLOW_KOKKOS_KERNELS_SOURCE_DIR)
   add_subdirectory(${MPMFLOW_KOKKOS_KERNELS_SOURCE_DIR} ${CMAKE_BINARY_DIR}/kokkos-kernels EXCLUDE_FROM_ALL)

@@ -8,54 +8,64 @@
 //                 the gas expands or compresses. Its weight gradients are continuous when a
 //                 particle crosses a cell face, which removes the grid-crossing force noise that
 //                 keeps linear MPM from converging (Steffen, Kirby & Berzins 2008).
-// Each policy maps (p, cell, x, y) to a Stencil: node indices with phi_i(X_p), grad phi_i(X_p).
+// Each policy maps (p, cell, x, y) to a SeparableStencil: its nodes, phi_i(X_p), grad phi_i(X_p).
 #include "kernels/grid_geometry.hpp"
 #include "kernels/types.hpp"
 
 namespace mpmflow {
 
-template <int N>
-struct Stencil {
-  static constexpr int size = N;
-  index_t node[N];
-  real_t weight[N];
-  real_t grad_x[N];
-  real_t grad_y[N];
+// The nodes of a particle's stencil with phi_i(X_p) and grad phi_i(X_p). Both bases are tensor
+// products, phi(a, b) = wx[a] wy[b] over K x K nodes, so a stencil stores the 1D factors and
+// forms products on demand: 4K numbers instead of 3K^2 + K^2 node indices, and the transfer kernels
+// sum row by row (sum over b of wy[b] times the sum over a of wx[a] F), about half the flops.
+// Node k = a + K b is node (a, b) of the stencil; node(0, 0) is first_node.
+template <int K>
+struct SeparableStencil {
+  static constexpr int width = K;
+  static constexpr int size = K * K;
+  index_t first_node;
+  index_t row_stride;  // nodes_x: from node (a, b) to (a, b + 1)
+  real_t wx[K], gx[K];  // 1D weights along x and their derivatives d/dx
+  real_t wy[K], gy[K];
+
+  KOKKOS_INLINE_FUNCTION index_t node(int a, int b) const { return first_node + a + b * row_stride; }
+  KOKKOS_INLINE_FUNCTION index_t node(int k) const { return node(k % K, k / K); }
+  KOKKOS_INLINE_FUNCTION real_t weight(int k) const { return wx[k % K] * wy[k / K]; }
+  KOKKOS_INLINE_FUNCTION real_t grad_x(int k) const { return gx[k % K] * wy[k / K]; }
+  KOKKOS_INLINE_FUNCTION real_t grad_y(int k) const { return wx[k % K] * gy[k / K]; }
 };
 
 // Bilinear basis in the particle's cell. Node order: (i,j), (i+1,j), (i,j+1), (i+1,j+1).
-KOKKOS_INLINE_FUNCTION Stencil<4> q1_stencil(const GridGeometry& grid, index_t cell, real_t x, real_t y) {
+KOKKOS_INLINE_FUNCTION SeparableStencil<2> q1_stencil(const GridGeometry& grid, index_t cell, real_t x, real_t y) {
   const index_t ci = cell % grid.cells_x();
   const index_t cj = cell / grid.cells_x();
-  // Local coordinates in [0, 1] within the cell.
-  const real_t xi = (x - grid.node_x(ci)) / grid.spacing_x;
-  const real_t eta = (y - grid.node_y(cj)) / grid.spacing_y;
   const real_t inv_hx = real_t(1) / grid.spacing_x;
   const real_t inv_hy = real_t(1) / grid.spacing_y;
-
-  Stencil<4> s;
-  const index_t n00 = grid.node_index(ci, cj);
-  s.node[0] = n00;
-  s.node[1] = n00 + 1;
-  s.node[2] = n00 + grid.nodes_x;
-  s.node[3] = n00 + grid.nodes_x + 1;
-  s.weight[0] = (1 - xi) * (1 - eta);
-  s.weight[1] = xi * (1 - eta);
-  s.weight[2] = (1 - xi) * eta;
-  s.weight[3] = xi * eta;
-  s.grad_x[0] = -(1 - eta) * inv_hx;
-  s.grad_x[1] = (1 - eta) * inv_hx;
-  s.grad_x[2] = -eta * inv_hx;
-  s.grad_x[3] = eta * inv_hx;
-  s.grad_y[0] = -(1 - xi) * inv_hy;
-  s.grad_y[1] = -xi * inv_hy;
-  s.grad_y[2] = (1 - xi) * inv_hy;
-  s.grad_y[3] = xi * inv_hy;
+  // Local coordinates in [0, 1] within the cell.
+  const real_t xi = (x - grid.node_x(ci)) * inv_hx;
+  const real_t eta = (y - grid.node_y(cj)) * inv_hy;
+  SeparableStencil<2> s;
+  s.first_node = grid.node_index(ci, cj);
+  s.row_stride = grid.nodes_x;
+  s.wx[0] = 1 - xi;
+  s.wx[1] = xi;
+  s.gx[0] = -inv_hx;
+  s.gx[1] = inv_hx;
+  s.wy[0] = 1 - eta;
+  s.wy[1] = eta;
+  s.gy[0] = -inv_hy;
+  s.gy[1] = inv_hy;
   return s;
 }
 
+// min, max and clamp in the form compilers turn into single min/max instructions (no branch).
+KOKKOS_FORCEINLINE_FUNCTION real_t min_real(real_t a, real_t b) { return a < b ? a : b; }
+KOKKOS_FORCEINLINE_FUNCTION real_t max_real(real_t a, real_t b) { return a > b ? a : b; }
+KOKKOS_FORCEINLINE_FUNCTION real_t clamp_real(real_t v, real_t lo, real_t hi) { return min_real(max_real(v, lo), hi); }
+
 // 1D GIMP weight of a node at signed distance d = x_p - x_i, and its derivative d/dx_p, for a
-// particle of half-length l < h/2 (the hat function of width h averaged over [x_p - l, x_p + l]).
+// particle of half-length l <= h/2 (the hat function of width h averaged over [x_p - l, x_p + l]):
+// the piecewise form of the literature, the reference gimp_axis_weights is tested against.
 KOKKOS_INLINE_FUNCTION void gimp_weight_1d(real_t d, real_t h, real_t l, real_t& weight, real_t& gradient) {
   const real_t a = d < 0 ? -d : d;
   const real_t sign = d < 0 ? real_t(-1) : real_t(1);
@@ -75,12 +85,35 @@ KOKKOS_INLINE_FUNCTION void gimp_weight_1d(real_t d, real_t h, real_t l, real_t&
   }
 }
 
+// The same weights for the three nodes n - 1, n, n + 1 around the particle's nearest node n, all
+// at once and without branches (the piecewise form above mispredicts on randomly placed particles
+// and costs more than the rest of a transfer kernel). xi = (x_p - x_n) / h in [-1/2, 1/2],
+// lambda = l / h in (0, 1/2]; gradients are d/dx_p. The particle domain [xi - lambda, xi + lambda]
+// lies within [-1, 1]: `up` and `down` are the lengths of it above and below x_n. The outer hat
+// halves are linear there, so each outer weight is the integral of a linear function over the
+// part of the domain on its side, and the middle weight is what the partition of unity leaves.
+KOKKOS_FORCEINLINE_FUNCTION void gimp_axis_weights(real_t xi, real_t lambda, real_t inv_h, real_t (&weight)[3],
+                                              real_t (&gradient)[3]) {
+  const real_t width = 2 * lambda;
+  const real_t inv_2width = real_t(1) / (2 * width);  // 1 / (4 lambda)
+  const real_t up = clamp_real(xi + lambda, 0, width);
+  const real_t down = clamp_real(lambda - xi, 0, width);
+  const real_t beyond_up = max_real(xi - lambda, 0);  // domain wholly above x_n
+  const real_t beyond_down = max_real(-xi - lambda, 0);
+  weight[0] = down * down * inv_2width + beyond_down;
+  weight[2] = up * up * inv_2width + beyond_up;
+  weight[1] = 1 - weight[0] - weight[2];
+  gradient[0] = -2 * down * inv_2width * inv_h;
+  gradient[2] = 2 * up * inv_2width * inv_h;
+  gradient[1] = -(gradient[0] + gradient[2]);
+}
+
 struct LinearShape {
   static constexpr int stencil_size = 4;
   // Cells this far apart along an axis share no node (the stencil spans 2 node lines).
   static constexpr int colour_period = 2;
   GridGeometry grid;
-  KOKKOS_INLINE_FUNCTION Stencil<4> operator()(index_t /*particle*/, index_t cell, real_t x, real_t y) const {
+  KOKKOS_INLINE_FUNCTION SeparableStencil<2> operator()(index_t /*particle*/, index_t cell, real_t x, real_t y) const {
     return q1_stencil(grid, cell, x, y);
   }
 };
@@ -95,37 +128,34 @@ struct GimpShape {
   RealView stretch_x;  // per particle: current length / initial length along x and y
   RealView stretch_y;
 
-  // The 3 x 3 nodes around the node nearest to the particle; the grid's ghost layer holds the
-  // outer ones for particles in boundary cells.
-  // Half-size along one axis: the stretched initial size, kept within (0, h/2] so the domain
-  // never reaches past the 3-node stencil.
-  KOKKOS_INLINE_FUNCTION static real_t half_length(real_t initial, real_t stretch, real_t spacing) {
-    const real_t l = initial * stretch;
-    const real_t largest = real_t(0.5) * spacing, smallest = real_t(1e-3) * spacing;
-    return l > largest ? largest : (l < smallest ? smallest : l);
+  // Half-size along one axis in cell widths: the stretched initial size, kept within
+  // [1e-3, 1/2] so the domain never reaches past the 3-node stencil.
+  KOKKOS_INLINE_FUNCTION static real_t half_length_in_cells(real_t initial, real_t stretch, real_t spacing) {
+    return clamp_real(initial * stretch / spacing, real_t(1e-3), real_t(0.5));
   }
 
-  KOKKOS_INLINE_FUNCTION Stencil<9> operator()(index_t p, index_t cell, real_t x, real_t y) const {
-    const real_t lx = half_length(initial_half_length_x, stretch_x(p), grid.spacing_x);
-    const real_t ly = half_length(initial_half_length_y, stretch_y(p), grid.spacing_y);
+  // Along one axis: the nearest node n to a particle at `offset` cell widths past the node of
+  // its cell (c), as n - c in {0, 1}, and the particle's position relative to it in cell widths.
+  KOKKOS_INLINE_FUNCTION static index_t nearest_node(real_t offset, real_t& xi) {
+    const bool upper = offset >= real_t(0.5);
+    xi = upper ? offset - 1 : offset;
+    return upper ? 1 : 0;
+  }
+
+  // The 3 x 3 nodes around the node nearest to the particle; the grid's ghost layer holds the
+  // outer ones for particles in boundary cells.
+  KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<3> operator()(index_t p, index_t cell, real_t x, real_t y) const {
+    const real_t inv_hx = real_t(1) / grid.spacing_x, inv_hy = real_t(1) / grid.spacing_y;
     const index_t ci = cell % grid.cells_x();
     const index_t cj = cell / grid.cells_x();
-    const index_t ni = (x - grid.node_x(ci)) < real_t(0.5) * grid.spacing_x ? ci : ci + 1;
-    const index_t nj = (y - grid.node_y(cj)) < real_t(0.5) * grid.spacing_y ? cj : cj + 1;
-    real_t wx[3], gx[3], wy[3], gy[3];
-    for (int a = 0; a < 3; ++a) {
-      gimp_weight_1d(x - grid.node_x(ni - 1 + a), grid.spacing_x, lx, wx[a], gx[a]);
-      gimp_weight_1d(y - grid.node_y(nj - 1 + a), grid.spacing_y, ly, wy[a], gy[a]);
-    }
-    Stencil<9> s;
-    for (int b = 0; b < 3; ++b)
-      for (int a = 0; a < 3; ++a) {
-        const int k = a + 3 * b;
-        s.node[k] = grid.node_index(ni - 1 + a, nj - 1 + b);
-        s.weight[k] = wx[a] * wy[b];
-        s.grad_x[k] = gx[a] * wy[b];
-        s.grad_y[k] = wx[a] * gy[b];
-      }
+    real_t xi, eta;
+    const index_t ni = ci + nearest_node((x - grid.node_x(ci)) * inv_hx, xi);
+    const index_t nj = cj + nearest_node((y - grid.node_y(cj)) * inv_hy, eta);
+    SeparableStencil<3> s;
+    s.first_node = grid.node_index(ni - 1, nj - 1);
+    s.row_stride = grid.nodes_x;
+    gimp_axis_weights(xi, half_length_in_cells(initial_half_length_x, stretch_x(p), grid.spacing_x), inv_hx, s.wx, s.gx);
+    gimp_axis_weights(eta, half_length_in_cells(initial_half_length_y, stretch_y(p), grid.spacing_y), inv_hy, s.wy, s.gy);
     return s;
   }
 };

@@ -23,6 +23,8 @@
 //    cells of one colour are far enough apart that no two touch a common node, so each node is
 //    written by one thread at a time, in an order fixed by the colours and the cell order of the
 //    particles. Bitwise the same result for any thread count.
+#include <type_traits>
+
 #include <Kokkos_ScatterView.hpp>
 
 #include "kernels/shape_functions.hpp"
@@ -127,6 +129,9 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
   }
 }
 
+// The kernels below walk a stencil row by row (b along y, a along x) and use its tensor-product
+// form: phi(a, b) = wx[a] wy[b], so the y factor multiplies a whole row once.
+
 // P2G (eq. 16): node(i, c) += sum_p F_c(p) phi_i(X_p).
 template <class Shape, class ScatterViewType, class ParticleFunctor, class Traversal>
 void p2g(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& num_particles,
@@ -134,11 +139,16 @@ void p2g(const char* label, const Shape& shape, const ParticleLocations& particl
   constexpr int N = ParticleFunctor::num_components;
   for_each_particle_stencil(
       label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
+        constexpr int K = std::decay_t<decltype(s)>::width;
         real_t value[N];
         functor(p, value);
         auto access = scatter.access();
-        for (int a = 0; a < Shape::stencil_size; ++a)
-          for (int c = 0; c < N; ++c) access(s.node[a], first_component + c) += s.weight[a] * value[c];
+        for (int b = 0; b < K; ++b) {
+          real_t row[N];  // F wy[b]
+          for (int c = 0; c < N; ++c) row[c] = value[c] * s.wy[b];
+          for (int a = 0; a < K; ++a)
+            for (int c = 0; c < N; ++c) access(s.node(a, b), first_component + c) += s.wx[a] * row[c];
+        }
       });
 }
 
@@ -149,12 +159,20 @@ void p2gd(const char* label, const Shape& shape, const ParticleLocations& partic
   constexpr int N = ParticleFunctor::num_components;
   for_each_particle_stencil(
       label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
+        constexpr int K = std::decay_t<decltype(s)>::width;
         real_t vector[N][2];
         functor(p, vector);
         auto access = scatter.access();
-        for (int a = 0; a < Shape::stencil_size; ++a)
-          for (int c = 0; c < N; ++c)
-            access(s.node[a], first_component + c) += vector[c][0] * s.grad_x[a] + vector[c][1] * s.grad_y[a];
+        for (int b = 0; b < K; ++b) {
+          real_t row_x[N], row_y[N];  // G_x wy[b] and G_y gy[b]
+          for (int c = 0; c < N; ++c) {
+            row_x[c] = vector[c][0] * s.wy[b];
+            row_y[c] = vector[c][1] * s.gy[b];
+          }
+          for (int a = 0; a < K; ++a)
+            for (int c = 0; c < N; ++c)
+              access(s.node(a, b), first_component + c) += s.gx[a] * row_x[c] + s.wx[a] * row_y[c];
+        }
       });
 }
 
@@ -170,15 +188,25 @@ void p2g_and_p2gd(const char* label, const Shape& shape, const ParticleLocations
   constexpr int ND = VectorFunctor::num_components;
   for_each_particle_stencil(
       label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
+        constexpr int K = std::decay_t<decltype(s)>::width;
         real_t value[NV];
         real_t vector[ND][2];
         value_functor(p, value);
         vector_functor(p, vector);
         auto access = scatter.access();
-        for (int a = 0; a < Shape::stencil_size; ++a) {
-          for (int c = 0; c < NV; ++c) access(s.node[a], first_value_component + c) += s.weight[a] * value[c];
-          for (int c = 0; c < ND; ++c)
-            access(s.node[a], first_vector_component + c) += vector[c][0] * s.grad_x[a] + vector[c][1] * s.grad_y[a];
+        for (int b = 0; b < K; ++b) {
+          real_t row[NV], row_x[ND], row_y[ND];
+          for (int c = 0; c < NV; ++c) row[c] = value[c] * s.wy[b];
+          for (int c = 0; c < ND; ++c) {
+            row_x[c] = vector[c][0] * s.wy[b];
+            row_y[c] = vector[c][1] * s.gy[b];
+          }
+          for (int a = 0; a < K; ++a) {
+            const index_t node = s.node(a, b);
+            for (int c = 0; c < NV; ++c) access(node, first_value_component + c) += s.wx[a] * row[c];
+            for (int c = 0; c < ND; ++c)
+              access(node, first_vector_component + c) += s.gx[a] * row_x[c] + s.wx[a] * row_y[c];
+          }
         }
       });
 }
@@ -190,14 +218,60 @@ void g2p(const char* label, const Shape& shape, const ParticleLocations& particl
   constexpr int N = NodeFunctor::num_components;
   for_each_particle_stencil(
       label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
+        constexpr int K = std::decay_t<decltype(s)>::width;
         real_t value[N];
         for (int c = 0; c < N; ++c) value[c] = 0;
-        for (int a = 0; a < Shape::stencil_size; ++a) {
-          real_t node_value[N];
-          node_functor(s.node[a], node_value);
-          for (int c = 0; c < N; ++c) value[c] += s.weight[a] * node_value[c];
+        for (int b = 0; b < K; ++b) {
+          real_t row[N];  // sum over the row of wx[a] F
+          for (int c = 0; c < N; ++c) row[c] = 0;
+          for (int a = 0; a < K; ++a) {
+            real_t node_value[N];
+            node_functor(s.node(a, b), node_value);
+            for (int c = 0; c < N; ++c) row[c] += s.wx[a] * node_value[c];
+          }
+          for (int c = 0; c < N; ++c) value[c] += s.wy[b] * row[c];
         }
         sink(p, value);
+      });
+}
+
+// G2P then P2G in one pass (Algorithm 1, steps 6-8 fused): for each particle, value_c(p) =
+// sum_i F_c(node i) phi_i(X_p) as in g2p; update(p, value, out) consumes it and returns the
+// particle's contribution, and node(i, c) += out_c(p) phi_i(X_p) as in p2g, with the same stencil.
+// Valid when the P2G target is not what the G2P reads. Saves the second stencil evaluation and the
+// second read of the particle positions (the paper ran the two as separate kernels).
+//   update: static constexpr int num_components (M);
+//           void operator()(index_t p, const real_t (&value)[N], real_t (&out)[M]) const
+template <class Shape, class NodeFunctor, class ParticleUpdate, class ScatterViewType, class Traversal>
+void g2p_then_p2g(const char* label, const Shape& shape, const ParticleLocations& particles,
+                  const Traversal& traversal, const NodeFunctor& node_functor, const ParticleUpdate& update,
+                  ScatterViewType& scatter, int first_component) {
+  constexpr int N = NodeFunctor::num_components;
+  constexpr int M = ParticleUpdate::num_components;
+  for_each_particle_stencil(
+      label, shape, particles, traversal, KOKKOS_LAMBDA(const index_t p, const auto& s) {
+        constexpr int K = std::decay_t<decltype(s)>::width;
+        real_t value[N];
+        for (int c = 0; c < N; ++c) value[c] = 0;
+        for (int b = 0; b < K; ++b) {
+          real_t row[N];
+          for (int c = 0; c < N; ++c) row[c] = 0;
+          for (int a = 0; a < K; ++a) {
+            real_t node_value[N];
+            node_functor(s.node(a, b), node_value);
+            for (int c = 0; c < N; ++c) row[c] += s.wx[a] * node_value[c];
+          }
+          for (int c = 0; c < N; ++c) value[c] += s.wy[b] * row[c];
+        }
+        real_t out[M];
+        update(p, value, out);
+        auto access = scatter.access();
+        for (int b = 0; b < K; ++b) {
+          real_t row[M];
+          for (int c = 0; c < M; ++c) row[c] = out[c] * s.wy[b];
+          for (int a = 0; a < K; ++a)
+            for (int c = 0; c < M; ++c) access(s.node(a, b), first_component + c) += s.wx[a] * row[c];
+        }
       });
 }
 
@@ -208,14 +282,23 @@ void g2pd(const char* label, const Shape& shape, const ParticleLocations& partic
   constexpr int N = NodeFunctor::num_components;
   for_each_particle_stencil(
       label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
+        constexpr int K = std::decay_t<decltype(s)>::width;
         real_t gradient[N][2];
         for (int c = 0; c < N; ++c) gradient[c][0] = gradient[c][1] = 0;
-        for (int a = 0; a < Shape::stencil_size; ++a) {
-          real_t node_value[N];
-          node_functor(s.node[a], node_value);
+        for (int b = 0; b < K; ++b) {
+          real_t row_w[N], row_g[N];  // sums over the row of wx[a] F and gx[a] F
+          for (int c = 0; c < N; ++c) row_w[c] = row_g[c] = 0;
+          for (int a = 0; a < K; ++a) {
+            real_t node_value[N];
+            node_functor(s.node(a, b), node_value);
+            for (int c = 0; c < N; ++c) {
+              row_w[c] += s.wx[a] * node_value[c];
+              row_g[c] += s.gx[a] * node_value[c];
+            }
+          }
           for (int c = 0; c < N; ++c) {
-            gradient[c][0] += s.grad_x[a] * node_value[c];
-            gradient[c][1] += s.grad_y[a] * node_value[c];
+            gradient[c][0] += s.wy[b] * row_g[c];
+            gradient[c][1] += s.gy[b] * row_w[c];
           }
         }
         sink(p, gradient);

@@ -72,6 +72,13 @@ class ObjectReader {
     return has(key) ? integer(key, min, max) : fallback;
   }
 
+  bool boolean_or(const std::string& key, bool fallback) {
+    if (!has(key)) return fallback;
+    const json& v = require(key);
+    if (!v.is_boolean()) fail(at(key), "true or false", v);
+    return v.get<bool>();
+  }
+
   std::string string(const std::string& key) {
     const json& v = require(key);
     if (!v.is_string()) fail(at(key), "a string", v);
@@ -442,6 +449,7 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
                                     {"sorted", P2GStrategy::sorted}});
     cfg.numerics.shape_function = r.choice_or("shape_function", ShapeFunction::gimp,
                                               {{"linear", ShapeFunction::linear}, {"gimp", ShapeFunction::gimp}});
+    cfg.numerics.fused_kernels = r.boolean_or("fused_kernels", true);
     r.finish();
   }
 

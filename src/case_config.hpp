@@ -116,6 +116,9 @@ struct NumericsConfig {
   int reorder_interval = 0;  // reorder particles by cell every N steps; 0: never
   P2GStrategy p2g = P2GStrategy::automatic;
   ShapeFunction shape_function = ShapeFunction::gimp;
+  // G2P of velocity and acceleration fused with the momentum remap P2G (steps 6-8): one stencil
+  // and one pass over the particles instead of two. false runs the two generic kernels.
+  bool fused_kernels = true;
 };
 
 struct CaseConfig {

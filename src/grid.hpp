@@ -41,17 +41,35 @@ GridSlab make_grid_slab(const DomainConfig& domain, int axis, index_t cell_begin
 
 // Node fields of one slab. `state` holds the step's P2G results; `momentum_remap` the second
 // momentum P2G (Algorithm 1, step 8), kept apart so the mass column stays intact beside it.
+// `per_unit_mass` holds what the G2P kernels interpolate: node momentum and force divided by the
+// node mass once per node (on the grid), instead of once per particle and stencil node inside
+// the G2P kernels (the paper's theta functor): ppc^2 fewer divisions.
 struct GridFields {
   enum StateColumn : int { mass = 0, momentum_x, momentum_y, force_x, force_y, num_state_columns };
   enum RemapColumn : int { remap_momentum_x = 0, remap_momentum_y, num_remap_columns };
+  enum PerUnitMassColumn : int {
+    velocity_x = 0,    // V-bar: updated momentum / mass (Algorithm 1, step 6)
+    velocity_y,
+    acceleration_x,    // force / mass (step 7)
+    acceleration_y,
+    remap_velocity_x,  // remapped momentum / mass (step 10)
+    remap_velocity_y,
+    num_per_unit_mass_columns
+  };
 
   NodeFieldsView state;
   NodeFieldsView momentum_remap;
+  NodeFieldsView per_unit_mass;
 
   GridFields() = default;
   explicit GridFields(const GridGeometry& geometry)
       : state("node_state", geometry.num_nodes(), num_state_columns),
-        momentum_remap("node_momentum_remap", geometry.num_nodes(), num_remap_columns) {}
+        momentum_remap("node_momentum_remap", geometry.num_nodes(), num_remap_columns),
+        per_unit_mass("node_per_unit_mass", geometry.num_nodes(), num_per_unit_mass_columns) {}
+
+  size_t bytes() const {
+    return (state.span() + momentum_remap.span() + per_unit_mass.span()) * sizeof(real_t);
+  }
 };
 
 }  // namespace mpmflow

@@ -156,7 +156,8 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
         << config.time.cfl << "\n"
         << "numerics: shape function " << to_string(config.numerics.shape_function) << ", P2G "
         << to_string(solver.p2g_strategy()) << ", reorder every " << config.numerics.reorder_interval
-        << " steps (0: never)\n";
+        << " steps (0: never), kernels "
+        << (config.numerics.fused_kernels ? "fused (G2P + momentum remap P2G in one pass)" : "unfused") << "\n";
     if (restarting)
       log << "restart from " << restart.path << ": step " << restart.clock.step << ", t = " << restart.clock.time
           << "\n";

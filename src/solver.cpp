@@ -49,18 +49,19 @@ struct InternalForce {
   }
 };
 
-// theta(a, m) = a / m on a node, for the listed columns of one View.
+// theta(a, m) = a / m on a node: 1 / m where the node carries mass, 0 on (nearly) empty nodes.
+KOKKOS_INLINE_FUNCTION real_t per_unit_node_mass(real_t node_mass, real_t mass_threshold) {
+  return node_mass > mass_threshold ? real_t(1) / node_mass : real_t(0);
+}
+
+// The G2P node functor: N adjacent columns of a View, read as they are.
 template <int N>
-struct PerUnitNodeMass {
+struct NodeColumns {
   static constexpr int num_components = N;
-  NodeFieldsView numerator;
+  NodeFieldsView fields;
   int first_column;
-  NodeFieldsView state;  // holds the node mass
-  real_t mass_threshold;
   KOKKOS_INLINE_FUNCTION void operator()(index_t node, real_t (&value)[N]) const {
-    const real_t m = state(node, GridFields::mass);
-    const real_t inv_m = m > mass_threshold ? real_t(1) / m : real_t(0);
-    for (int c = 0; c < N; ++c) value[c] = numerator(node, first_column + c) * inv_m;
+    for (int c = 0; c < N; ++c) value[c] = fields(node, first_column + c);
   }
 };
 
@@ -73,6 +74,19 @@ struct StoreGridVelocityAndAccelerate {
     grid_velocity_y(p) = value[1];
     velocity_x(p) += dt * value[2];
     velocity_y(p) += dt * value[3];
+  }
+};
+
+// Steps 6-8 for one particle, for the fused kernel: the sink above, then the particle's new
+// momentum M V' for the remap P2G.
+struct AccelerateThenCarryMomentum {
+  static constexpr int num_components = 2;
+  StoreGridVelocityAndAccelerate store;
+  RealView mass;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4], real_t (&momentum)[2]) const {
+    store(p, value);
+    momentum[0] = mass(p) * store.velocity_x(p);
+    momentum[1] = mass(p) * store.velocity_y(p);
   }
 };
 
@@ -234,28 +248,44 @@ void Solver::ScatterStepper<Accumulation, Shape>::advance(Solver& solver, real_t
     auto t = timers.scope("boundary_conditions");
     solver.grid_boundaries_.apply_to_momentum_and_force(state);
   }
-  {  // 5. momentum equation on the grid: (mv)' = mv + dt f
+  const real_t mass_threshold = solver.node_mass_threshold_;
+  const NodeFieldsView per_unit_mass = fields.per_unit_mass;
+  {  // 5. momentum equation on the grid: (mv)' = mv + dt f; then V-bar = (mv)' / m and A = f / m
     auto t = timers.scope("grid_momentum_update");
     Kokkos::parallel_for(
         "grid_momentum_update", Kokkos::RangePolicy<ExecutionSpace>(0, grid.num_nodes()),
         KOKKOS_LAMBDA(const index_t i) {
           state(i, GridFields::momentum_x) += dt * state(i, GridFields::force_x);
           state(i, GridFields::momentum_y) += dt * state(i, GridFields::force_y);
+          const real_t inv_m = per_unit_node_mass(state(i, GridFields::mass), mass_threshold);
+          per_unit_mass(i, GridFields::velocity_x) = state(i, GridFields::momentum_x) * inv_m;
+          per_unit_mass(i, GridFields::velocity_y) = state(i, GridFields::momentum_y) * inv_m;
+          per_unit_mass(i, GridFields::acceleration_x) = state(i, GridFields::force_x) * inv_m;
+          per_unit_mass(i, GridFields::acceleration_y) = state(i, GridFields::force_y) * inv_m;
         });
   }
-  const real_t mass_threshold = solver.node_mass_threshold_;
-  {  // 6-7. G2P of velocity (V-bar) and acceleration; V' = V + dt A
-    auto t = timers.scope("g2p_velocity_acceleration");
-    g2p("g2p_velocity_acceleration", shape, where, n,
-        PerUnitNodeMass<4>{state, GridFields::momentum_x, state, mass_threshold},
-        StoreGridVelocityAndAccelerate{pt.grid_velocity_x, pt.grid_velocity_y, pt.velocity_x, pt.velocity_y, dt});
-  }
-  {  // 8. momentum P2G with the updated particle velocity
-    auto t = timers.scope("p2g_momentum_remap");
+  const StoreGridVelocityAndAccelerate accelerate{pt.grid_velocity_x, pt.grid_velocity_y, pt.velocity_x,
+                                                  pt.velocity_y, dt};
+  if (cfg.numerics.fused_kernels) {  // 6-8 in one pass
+    auto t = timers.scope("g2p_p2g_velocity_momentum");
     p2g_begin(accumulation_.remap(), remap);
-    p2g("p2g_momentum_remap", shape, where, accumulation_.traversal(pt), accumulation_.remap(),
-        GridFields::remap_momentum_x, Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
+    g2p_then_p2g("g2p_p2g_velocity_momentum", shape, where, accumulation_.traversal(pt),
+                 NodeColumns<4>{per_unit_mass, GridFields::velocity_x}, AccelerateThenCarryMomentum{accelerate, pt.mass},
+                 accumulation_.remap(), GridFields::remap_momentum_x);
     p2g_end(accumulation_.remap(), remap);
+  } else {
+    {  // 6-7. G2P of velocity (V-bar) and acceleration; V' = V + dt A
+      auto t = timers.scope("g2p_velocity_acceleration");
+      g2p("g2p_velocity_acceleration", shape, where, n, NodeColumns<4>{per_unit_mass, GridFields::velocity_x},
+          accelerate);
+    }
+    {  // 8. momentum P2G with the updated particle velocity
+      auto t = timers.scope("p2g_momentum_remap");
+      p2g_begin(accumulation_.remap(), remap);
+      p2g("p2g_momentum_remap", shape, where, accumulation_.traversal(pt), accumulation_.remap(),
+          GridFields::remap_momentum_x, Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
+      p2g_end(accumulation_.remap(), remap);
+    }
   }
   {
     auto t = timers.scope("halo_exchange");
@@ -265,10 +295,20 @@ void Solver::ScatterStepper<Accumulation, Shape>::advance(Solver& solver, real_t
     auto t = timers.scope("boundary_conditions");
     solver.grid_boundaries_.apply_to_momentum(remap, GridFields::remap_momentum_x, state);
   }
+  {  // the remapped node velocity, for step 10
+    auto t = timers.scope("grid_remap_velocity");
+    Kokkos::parallel_for(
+        "grid_remap_velocity", Kokkos::RangePolicy<ExecutionSpace>(0, grid.num_nodes()),
+        KOKKOS_LAMBDA(const index_t i) {
+          const real_t inv_m = per_unit_node_mass(state(i, GridFields::mass), mass_threshold);
+          per_unit_mass(i, GridFields::remap_velocity_x) = remap(i, GridFields::remap_momentum_x) * inv_m;
+          per_unit_mass(i, GridFields::remap_velocity_y) = remap(i, GridFields::remap_momentum_y) * inv_m;
+        });
+  }
   {  // 10. G2PD velocity gradient; density, energy, pressure update
     auto t = timers.scope("g2pd_particle_update");
     g2pd("g2pd_particle_update", shape, where, n,
-         PerUnitNodeMass<2>{remap, GridFields::remap_momentum_x, state, mass_threshold},
+         NodeColumns<2>{per_unit_mass, GridFields::remap_velocity_x},
          UpdateThermodynamics{pt.density, pt.specific_energy, pt.pressure, pt.artificial_viscosity,
                               pt.domain_stretch_x, pt.domain_stretch_y, dt,
                               cfg.physics.gamma, slab.cell_size(), cfg.physics.viscosity_quadratic,
@@ -385,7 +425,7 @@ Solver::MemoryUse Solver::memory_use() const {
   particles_.for_each_field([&](const auto& field) {
     use.particle_bytes += field.span() * sizeof(typename std::decay_t<decltype(field)>::value_type);
   });
-  use.grid_bytes = (grid_fields_.state.span() + grid_fields_.momentum_remap.span()) * sizeof(real_t);
+  use.grid_bytes = grid_fields_.bytes();
   use.scatter_copy_bytes = stepper_->scatter_copy_bytes();
   return use;
 }

@@ -3,6 +3,7 @@
 
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <string>
 #include <type_traits>
@@ -216,7 +217,7 @@ template <class Shape>
 bool stencil_is_inner(const Shape& shape, index_t p, index_t cell, real_t x, real_t y) {
   const auto s = shape(p, cell, x, y);
   for (int a = 0; a < Shape::stencil_size; ++a)
-    if (s.weight[a] != 0 && !is_inner_node(shape.grid, s.node[a] % shape.grid.nodes_x, s.node[a] / shape.grid.nodes_x))
+    if (s.weight(a) != 0 && !is_inner_node(shape.grid, s.node(a) % shape.grid.nodes_x, s.node(a) / shape.grid.nodes_x))
       return false;
   return true;
 }
@@ -229,11 +230,11 @@ TYPED_TEST(TransferKernels, PartitionOfUnityAndZeroGradientSum) {
     const auto s = shape(k, g.cell_of(p.x[k], p.y[k]), p.x[k], p.y[k]);
     double sum = 0, gx = 0, gy = 0;
     for (int a = 0; a < decltype(shape)::stencil_size; ++a) {
-      EXPECT_GE(s.weight[a], -1e-15);
-      EXPECT_LE(s.weight[a], 1 + 1e-15);
-      sum += s.weight[a];
-      gx += s.grad_x[a];
-      gy += s.grad_y[a];
+      EXPECT_GE(s.weight(a), -1e-15);
+      EXPECT_LE(s.weight(a), 1 + 1e-15);
+      sum += s.weight(a);
+      gx += s.grad_x(a);
+      gy += s.grad_y(a);
     }
     EXPECT_NEAR(sum, 1.0, 1e-14);
     EXPECT_NEAR(gx, 0.0, 1e-12);
@@ -244,11 +245,34 @@ TYPED_TEST(TransferKernels, PartitionOfUnityAndZeroGradientSum) {
 TEST(ShapeFunctions, NodalInterpolationProperty) {
   const GridGeometry g = test_grid();
   // At a cell's corner node the weight of that node is 1 and the others 0.
-  const Stencil<4> s = q1_stencil(g, g.cell_of(g.node_x(2), g.node_y(3)), g.node_x(2), g.node_y(3));
+  const SeparableStencil<2> s = q1_stencil(g, g.cell_of(g.node_x(2), g.node_y(3)), g.node_x(2), g.node_y(3));
   // (GIMP averages the hat over the particle domain, so it is not interpolating: not tested.)
-  EXPECT_EQ(s.node[0], g.node_index(2, 3));
-  EXPECT_DOUBLE_EQ(s.weight[0], 1.0);
-  EXPECT_DOUBLE_EQ(s.weight[1] + s.weight[2] + s.weight[3], 0.0);
+  EXPECT_EQ(s.node(0), g.node_index(2, 3));
+  EXPECT_DOUBLE_EQ(s.weight(0), 1.0);
+  EXPECT_DOUBLE_EQ(s.weight(1) + s.weight(2) + s.weight(3), 0.0);
+}
+
+TEST(ShapeFunctions, BranchFreeGimpWeightsEqualThePiecewiseForm) {
+  // gimp_axis_weights (what the kernels use) against gimp_weight_1d at each of the three nodes,
+  // over positions across the whole half-cell range and domain sizes from tiny to half a cell,
+  // including the piece boundaries |d| = l, h - l, h + l.
+  const real_t h = 0.37;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> uxi(-0.5, 0.5), ulambda(1e-3, 0.5);
+  std::vector<std::pair<double, double>> cases;
+  for (int k = 0; k < 20000; ++k) cases.emplace_back(uxi(rng), ulambda(rng));
+  for (double lambda : {1e-3, 0.1, 0.25, 0.5})
+    for (double xi : {-0.5, -lambda, 0.0, lambda, 0.5, 1 - lambda - 1, 0.5 - lambda}) cases.emplace_back(xi, lambda);
+  for (const auto& [xi, lambda] : cases) {
+    real_t w[3], g[3];
+    gimp_axis_weights(xi, lambda, 1 / h, w, g);
+    for (int a = 0; a < 3; ++a) {
+      real_t ref_w, ref_g;
+      gimp_weight_1d((xi - (a - 1)) * h, h, lambda * h, ref_w, ref_g);
+      ASSERT_NEAR(w[a], ref_w, 1e-13) << "node " << a << " xi " << xi << " lambda " << lambda;
+      ASSERT_NEAR(g[a] * h, ref_g * h, 1e-12) << "node " << a << " xi " << xi << " lambda " << lambda;
+    }
+  }
 }
 
 TYPED_TEST(TransferKernels, G2PReproducesLinearNodalFieldAndGradientExactly) {
@@ -303,6 +327,67 @@ TYPED_TEST(TransferKernels, P2GAgreesWithTheDuplicatedScatterView) {
   ASSERT_GT(largest, 0);
   for (int i = 0; i < g.num_nodes(); ++i)
     for (int c = 0; c < 2; ++c) EXPECT_NEAR(mine(i, c), reference(i, c), 1e-13 * largest) << "node " << i;
+}
+
+// For the fused kernel: keep the interpolated value and hand back mass x value for the P2G.
+struct StoreValueAndWeighByMass {
+  static constexpr int num_components = 1;
+  RealView out, mass;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&v)[1], real_t (&carried)[1]) const {
+    out(p) = v[0];
+    carried[0] = mass(p) * v[0];
+  }
+};
+struct MassTimes {  // P2G functor: M value(p)
+  static constexpr int num_components = 1;
+  RealView mass, value;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[1]) const { v[0] = mass(p) * value(p); }
+};
+
+TYPED_TEST(TransferKernels, FusedG2PThenP2GEqualsTheTwoKernels) {
+  const GridGeometry g = test_grid();
+  const DeviceParticles d = to_device(g, random_particles(g, 1500, 8));
+  const auto shape = TypeParam::MakeShape::make(g, d.count);
+  NodeFieldsView nodal("nodal", g.num_nodes(), 1);
+  auto h = Kokkos::create_mirror_view(nodal);
+  for (int j = 0; j < g.nodes_y; ++j)
+    for (int i = 0; i < g.nodes_x; ++i) h(g.node_index(i, j), 0) = std::sin(1.0 + i) * std::cos(0.5 * j);
+  Kokkos::deep_copy(nodal, h);
+
+  // Separately: G2P into a particle View, then P2G of mass x that value.
+  RealView separate_value("separate_value", d.count);
+  g2p("test_g2p", shape, d.where, d.count, NodeColumn{nodal}, StoreValue{separate_value});
+  const NodeFieldsView separate =
+      run_p2g<typename TypeParam::Duplication, false>(shape, d, 1, MassTimes{d.mass, separate_value});
+
+  // Fused, with the same accumulation mode.
+  RealView fused_value("fused_value", d.count);
+  NodeFieldsView fused("fused", g.num_nodes(), 1);
+  const StoreValueAndWeighByMass update{fused_value, d.mass};
+  if constexpr (std::is_same<typename TypeParam::Duplication, Coloured>::value) {
+    CellOrder order;
+    order.build(d.where.cell, d.count, g.num_cells());
+    const ColouredCells cells{order.cell_offset(), order.particle(), g.cells_x(), g.cells_y()};
+    DirectNodeAccess direct{fused};
+    g2p_then_p2g("test_fused", shape, d.where, cells, NodeColumn{nodal}, update, direct, 0);
+  } else {
+    NodeScatterView<typename TypeParam::Duplication> scatter(fused);
+    p2g_begin(scatter, fused);
+    g2p_then_p2g("test_fused", shape, d.where, d.count, NodeColumn{nodal}, update, scatter, 0);
+    p2g_end(scatter, fused);
+  }
+
+  auto sv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), separate_value);
+  auto fv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fused_value);
+  // The same arithmetic, though the compiler may contract it into FMAs differently in the two
+  // kernels: equal to round-off.
+  for (index_t p = 0; p < d.count; ++p) EXPECT_NEAR(fv(p), sv(p), 1e-14) << "particle " << p;
+  auto sn = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), separate);
+  auto fn = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fused);
+  double largest = 0;
+  for (int i = 0; i < g.num_nodes(); ++i) largest = std::max(largest, std::fabs(sn(i, 0)));
+  ASSERT_GT(largest, 0);
+  for (int i = 0; i < g.num_nodes(); ++i) EXPECT_NEAR(fn(i, 0), sn(i, 0), 1e-13 * largest) << "node " << i;
 }
 
 TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
