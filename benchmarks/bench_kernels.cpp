@@ -1,0 +1,372 @@
+// Google Benchmark programs for each kernel of the MPM step and for the whole step, on the Mach 3
+// cylinder case (cases/cylinder_mach3.json) at several grid sizes and particles per cell, with
+// and without reordering, next to a STREAM-style triad measured in the same run.
+//
+// Each BM_Kernel row times one phase of real steps (the solver's phase timers, which fence) and
+// reports it per call: time, particle-steps per second (Mpps) and effective bandwidth (GBps:
+// bytes from the traffic model below divided by the time). BM_Step rows report the whole step,
+// its share of the triad bandwidth, and memory: the peak of all Kokkos allocations (every View,
+// ScatterView copy and temporary, seen through the Kokkos Tools allocation callbacks) per
+// particle and per node.
+//
+// "Without reordering" starts from particles in random order, as after a long run in which
+// recycling has scattered them (freshly created particles are in cell order and would hide the
+// effect); "with reordering" sorts them by cell every step (numerics/reorder_interval = 1).
+//
+// Traffic model: bytes moved per particle per call, double precision, 4-byte cell index, 8-byte
+// id. Each particle field a kernel reads or writes counts once; grid columns count once per node
+// (read, write, or 16 bytes for read-modify-write), and nodes ~ cells = particles / ppc. Stencil
+// weights are computed, not stored, and cost nothing. GIMP kernels also read the two stretches.
+//   p2g_mass_momentum_force     reads x y cell m vx vy p q rho                = 68; grid 5 RMW = 80/ppc
+//   g2p_p2g_velocity_momentum   reads x y cell m vx vy, writes vbx vby vx vy = 84; grid 4 read + 2 RMW = 64/ppc
+//   (unfused) g2p_velocity_acceleration  reads x y cell vx vy, writes vbx vby vx vy = 68; grid 4 read = 32/ppc
+//   (unfused) p2g_momentum_remap         reads x y cell m vx vy              = 44; grid 2 RMW = 32/ppc
+//   g2pd_particle_update        reads x y cell rho e p, writes rho e p q     = 76 (GIMP: stretches also
+//                               written, +16); grid 2 read = 16/ppc
+//   particle_move               reads x y vbx vby, writes x y                = 48
+//   cell_map                    reads x y, writes cell                       = 20
+//   time_step                   reads vx vy p rho                            = 32
+//   reorder                     key build (cell read, key written, sort), then every field (13 reals, cell,
+//                               id: 116 bytes) read through the permutation, written to a temporary and
+//                               copied back                                  = 3 x 116 + 4 + 8 + 4 = 364
+//   grid_reset 7 columns written = 56/ppc; grid_momentum_update 5 read + 6 written = 88/ppc;
+//   grid_remap_velocity 3 read + 2 written = 40/ppc.
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "case_config.hpp"
+#include "particles.hpp"
+#include "solver.hpp"
+
+namespace mpmflow {
+namespace {
+
+// ---- Memory: every Kokkos allocation, through the Kokkos Tools callbacks ----------------------
+
+struct AllocationTracker {
+  std::map<const void*, std::uint64_t> live;
+  std::uint64_t current = 0, peak = 0;
+  void reset_peak() { peak = current; }
+};
+AllocationTracker& allocations() {
+  static AllocationTracker tracker;
+  return tracker;
+}
+void on_allocate(Kokkos_Profiling_SpaceHandle, const char*, const void* ptr, std::uint64_t size) {
+  AllocationTracker& t = allocations();
+  t.live[ptr] = size;
+  t.current += size;
+  t.peak = std::max(t.peak, t.current);
+}
+void on_deallocate(Kokkos_Profiling_SpaceHandle, const char*, const void* ptr, std::uint64_t) {
+  AllocationTracker& t = allocations();
+  const auto it = t.live.find(ptr);
+  if (it == t.live.end()) return;
+  t.current -= it->second;
+  t.live.erase(it);
+}
+
+// ---- The runs -------------------------------------------------------------------------------
+
+struct RunSpec {
+  long target_cells = 100000;
+  int ppc_axis = 3;                    // particles per cell: ppc_axis^2
+  int reorder_interval = 0;            // 0: random order, never reordered
+  std::string shape = "gimp";          // numerics/shape_function
+  std::string p2g = "automatic";       // numerics/p2g
+  bool fused = true;                   // numerics/fused_kernels
+
+  std::string key() const {
+    return std::to_string(target_cells) + "/" + std::to_string(ppc_axis) + "/" + std::to_string(reorder_interval) +
+           "/" + shape + "/" + p2g + "/" + (fused ? "fused" : "unfused");
+  }
+  std::string label() const {
+    return shape + ", " + std::to_string(ppc_axis * ppc_axis) + " ppc, " +
+           (reorder_interval ? "reordered every step" : "random order") + ", P2G " + p2g +
+           (fused ? "" : ", unfused");
+  }
+};
+
+// The cylinder case at about target_cells cells (its 2:1 domain), ppc_axis^2 particles per cell.
+CaseConfig cylinder_case(const RunSpec& spec) {
+  const long cells_y = std::max(4L, std::lround(std::sqrt(spec.target_cells / 2.0)));
+  return load_case_file(std::string(MPMFLOW_SOURCE_DIR) + "/cases/cylinder_mach3.json",
+                        {"domain/cells_x=" + std::to_string(2 * cells_y), "domain/cells_y=" + std::to_string(cells_y),
+                         "particles/per_cell=[" + std::to_string(spec.ppc_axis) + "," + std::to_string(spec.ppc_axis) + "]",
+                         "numerics/reorder_interval=" + std::to_string(spec.reorder_interval),
+                         "numerics/shape_function=\"" + spec.shape + "\"", "numerics/p2g=\"" + spec.p2g + "\"",
+                         std::string("numerics/fused_kernels=") + (spec.fused ? "true" : "false"),
+                         "output/snapshots=0"});
+}
+
+// Puts the particles in a random order (the same for every run).
+void shuffle_particles(ParticleState& particles) {
+  const index_t n = particles.count;
+  std::vector<index_t> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::shuffle(order.begin(), order.end(), std::mt19937(12345));
+  IndexView permutation("shuffle_permutation", n);
+  auto host = Kokkos::create_mirror_view(permutation);
+  for (index_t k = 0; k < n; ++k) host(k) = order[k];
+  Kokkos::deep_copy(permutation, host);
+  particles.for_each_field_mutable([&](auto& field) {
+    using ViewType = std::decay_t<decltype(field)>;
+    ViewType copy(std::string("shuffle_copy"), n);
+    Kokkos::parallel_for(
+        "shuffle", Kokkos::RangePolicy<ExecutionSpace>(0, n),
+        KOKKOS_LAMBDA(const index_t k) { copy(k) = field(permutation(k)); });
+    Kokkos::deep_copy(Kokkos::subview(field, std::make_pair(index_t(0), n)), copy);
+  });
+}
+
+// One solver at a time (rows of the same run are adjacent): creating it is timed for memory only.
+struct Run {
+  RunSpec spec;
+  CaseConfig config;
+  std::unique_ptr<Solver> solver;
+  double particles = 0, cells = 0, nodes = 0;
+  std::uint64_t peak_bytes = 0;  // all Kokkos allocations while building it and stepping
+};
+
+Run& current_run() {
+  static Run run;
+  return run;
+}
+
+Run& run_for(const RunSpec& spec) {
+  Run& run = current_run();
+  if (run.solver && run.spec.key() == spec.key()) return run;
+  run.solver.reset();
+  const std::uint64_t baseline = allocations().current;
+  allocations().reset_peak();
+  run.spec = spec;
+  run.config = cylinder_case(spec);
+  const GridSlab slab = make_grid_slab(run.config.domain, 0, run.config.domain.cells_x);
+  run.solver = std::make_unique<Solver>(run.config, slab, create_initial_particles(run.config, slab));
+  if (spec.reorder_interval == 0) shuffle_particles(run.solver->particles());
+  // A few steps outside the timing: first-touch of the ScatterView copies, the bow shock forming.
+  for (int k = 0; k < 3; ++k) run.solver->advance(run.solver->stable_time_step());
+  run.peak_bytes = allocations().peak - baseline;
+  run.particles = run.solver->particles().count;
+  run.cells = double(run.config.domain.cells_x) * run.config.domain.cells_y;
+  run.nodes = slab.geometry.num_nodes();
+  return run;
+}
+
+struct Traffic {
+  double particle_bytes;  // per particle
+  double node_bytes;      // per node
+  bool stencil;           // GIMP reads the two stretches
+};
+const std::map<std::string, Traffic>& traffic_model() {
+  static const std::map<std::string, Traffic> model = {
+      {"p2g_mass_momentum_force", {68, 80, true}},
+      {"g2p_p2g_velocity_momentum", {84, 64, true}},
+      {"g2p_velocity_acceleration", {68, 32, true}},
+      {"p2g_momentum_remap", {44, 32, true}},
+      {"g2pd_particle_update", {76, 16, true}},
+      {"particle_move", {48, 0, false}},
+      {"cell_map", {20, 0, false}},
+      {"time_step", {32, 0, false}},
+      {"reorder", {364, 0, false}},
+      {"grid_reset", {0, 56, false}},
+      {"grid_momentum_update", {0, 88, false}},
+      {"grid_remap_velocity", {0, 40, false}}};
+  return model;
+}
+
+// Model bytes of one call of `phase` on this run.
+double phase_bytes(const std::string& phase, const Run& run) {
+  const auto it = traffic_model().find(phase);
+  if (it == traffic_model().end()) return 0;
+  double per_particle = it->second.particle_bytes;
+  if (run.spec.shape == "gimp" && it->second.stencil) per_particle += 16;
+  if (run.spec.shape == "gimp" && phase == "g2pd_particle_update") per_particle += 16;
+  return per_particle * run.particles + it->second.node_bytes * run.nodes;
+}
+
+double& measured_triad_GBps() {
+  static double value = 0;
+  return value;
+}
+
+// STREAM triad a = b + s c on Views far larger than the caches: the bandwidth the machine gives.
+void BM_Triad(benchmark::State& state) {
+  const index_t n = static_cast<index_t>(state.range(0));
+  RealView a("triad_a", n), b("triad_b", n), c("triad_c", n);
+  Kokkos::deep_copy(b, 1.0);
+  Kokkos::deep_copy(c, 2.0);
+  const real_t s = 3;
+  double seconds = 0;
+  for (auto _ : state) {
+    Kokkos::Timer timer;
+    Kokkos::parallel_for(
+        "triad", Kokkos::RangePolicy<ExecutionSpace>(0, n), KOKKOS_LAMBDA(const index_t i) { a(i) = b(i) + s * c(i); });
+    Kokkos::fence();
+    seconds += timer.seconds();
+  }
+  // Three arrays of n reals pass through memory once per iteration (write-allocate not counted).
+  const double GBps = 3.0 * sizeof(real_t) * n * static_cast<double>(state.iterations()) / seconds / 1e9;
+  measured_triad_GBps() = GBps;
+  state.counters["GBps"] = GBps;
+}
+
+// One phase, per call, in real steps. Manual time: only that phase's time counts.
+void BM_Kernel(benchmark::State& state, RunSpec spec, std::string phase) {
+  Run& run = run_for(spec);
+  Solver& solver = *run.solver;
+  double seconds = 0;
+  long calls = 0;
+  for (auto _ : state) {
+    const auto& timers = solver.timers();
+    const bool seen = std::find(timers.names().begin(), timers.names().end(), phase) != timers.names().end();
+    const double before = seen ? timers.entry(phase).seconds : 0;
+    const long calls_before = seen ? timers.entry(phase).calls : 0;
+    solver.advance(solver.stable_time_step());
+    if (std::find(timers.names().begin(), timers.names().end(), phase) == timers.names().end()) {
+      state.SkipWithError(("no phase " + phase + " in this run").c_str());
+      return;
+    }
+    const double dt = timers.entry(phase).seconds - before;
+    seconds += dt;
+    calls += timers.entry(phase).calls - calls_before;
+    state.SetIterationTime(dt);
+  }
+  const double per_call = seconds / std::max(1L, calls);
+  state.counters["Mpps"] = run.particles / per_call / 1e6;
+  state.counters["GBps"] = phase_bytes(phase, run) / per_call / 1e9;
+  state.counters["model_B_per_particle"] = phase_bytes(phase, run) / run.particles;
+  state.counters["particles"] = run.particles;
+  state.counters["cells"] = run.cells;
+  state.SetLabel(run.spec.label());
+}
+
+// The whole step (time step, all phases, reordering when due).
+void BM_Step(benchmark::State& state, RunSpec spec) {
+  Run& run = run_for(spec);
+  Solver& solver = *run.solver;
+  solver.timers() = PhaseTimers();
+  long steps = 0;
+  for (auto _ : state) {
+    solver.advance(solver.stable_time_step());
+    ++steps;
+  }
+  const PhaseTimers& timers = solver.timers();
+  double step_seconds = 0, step_bytes = 0;
+  for (const auto& name : timers.names()) {
+    step_seconds += timers.entry(name).seconds / steps;
+    step_bytes += phase_bytes(name, run) * timers.entry(name).calls / steps;
+  }
+  const Solver::MemoryUse memory = solver.memory_use();
+  state.counters["particles"] = run.particles;
+  state.counters["cells"] = run.cells;
+  state.counters["particle_steps_per_s"] = run.particles / step_seconds;
+  state.counters["GBps"] = step_bytes / step_seconds / 1e9;
+  if (measured_triad_GBps() > 0) state.counters["triad_fraction"] = step_bytes / step_seconds / 1e9 / measured_triad_GBps();
+  state.counters["model_B_per_particle"] = step_bytes / run.particles;
+  state.counters["peak_alloc_B_per_particle"] = run.peak_bytes / run.particles;
+  state.counters["particle_B_per_particle"] = memory.particle_bytes / run.particles;
+  state.counters["grid_B_per_node"] = double(memory.grid_bytes + memory.scatter_copy_bytes) / run.nodes;
+  state.SetLabel(run.spec.label());
+}
+
+std::vector<long> parse_cells(const std::string& list) {
+  std::vector<long> cells;
+  size_t start = 0;
+  while (start < list.size()) {
+    const size_t end = std::min(list.find(',', start), list.size());
+    cells.push_back(std::lround(std::stod(list.substr(start, end - start))));
+    start = end + 1;
+  }
+  return cells;
+}
+
+// The rows: every kernel and the step, per grid size, ppc and ordering; then at the target size
+// (1e5 cells, 9 ppc) the P2G strategies, the unfused kernels and the linear shape.
+// Each row runs a fixed number of whole steps (a kernel row times its phase within them), so a
+// row costs the same whatever share of the step its kernel takes.
+void register_benchmarks(const std::vector<long>& cell_counts, bool matrix_only, int steps_per_row) {
+  benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->Arg(1 << 25)->Unit(benchmark::kMillisecond)->UseRealTime();
+  const std::vector<std::string> kernels = {"p2g_mass_momentum_force", "g2p_p2g_velocity_momentum",
+                                            "g2pd_particle_update",    "particle_move",
+                                            "cell_map",                "time_step"};
+  auto add_run = [&](const RunSpec& spec, const std::vector<std::string>& phases) {
+    const std::string suffix = "/" + spec.key();
+    for (const auto& phase : phases)
+      benchmark::RegisterBenchmark(("BM_Kernel/" + phase + suffix).c_str(), BM_Kernel, spec, phase)
+          ->Unit(benchmark::kMillisecond)
+          ->UseManualTime()
+          ->Iterations(steps_per_row);
+    benchmark::RegisterBenchmark(("BM_Step" + suffix).c_str(), BM_Step, spec)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime()
+        ->Iterations(steps_per_row);
+  };
+  for (long cells : cell_counts)
+    for (int ppc_axis : {2, 3, 4})
+      for (int reorder : {0, 1}) {
+        RunSpec spec;
+        spec.target_cells = cells;
+        spec.ppc_axis = ppc_axis;
+        spec.reorder_interval = reorder;
+        std::vector<std::string> phases = kernels;
+        if (reorder) phases.push_back("reorder");
+        add_run(spec, phases);
+      }
+  if (matrix_only) return;
+  RunSpec target;  // 1e5 cells, 9 ppc
+  target.reorder_interval = 20;  // the case file's setting
+  for (const char* p2g : {"duplicated", "atomic", "sorted"}) {
+    RunSpec s = target;
+    s.p2g = p2g;
+    add_run(s, {"p2g_mass_momentum_force", "g2p_p2g_velocity_momentum"});
+  }
+  RunSpec unfused = target;
+  unfused.fused = false;
+  add_run(unfused, {"g2p_velocity_acceleration", "p2g_momentum_remap"});
+  RunSpec linear = target;
+  linear.shape = "linear";
+  add_run(linear, kernels);
+}
+
+}  // namespace
+}  // namespace mpmflow
+
+// Options of this program, before Google Benchmark's own (--benchmark_filter, --benchmark_format,
+// --benchmark_out, ...):
+//   --cells=LIST    grid sizes of the kernel matrix, e.g. --cells=1e4,3e4,1e5 (default 1e4,1e5)
+//   --matrix-only   only the matrix (grid sizes x ppc x ordering), not the target-size variants
+//   --steps=N       steps per row (default 20)
+int main(int argc, char** argv) {
+  std::string cells = "1e4,1e5";
+  bool matrix_only = false;
+  int steps = 20;
+  std::vector<char*> rest;
+  for (int k = 0; k < argc; ++k) {
+    const std::string arg = argv[k];
+    if (arg.rfind("--cells=", 0) == 0) cells = arg.substr(8);
+    else if (arg == "--matrix-only") matrix_only = true;
+    else if (arg.rfind("--steps=", 0) == 0) steps = std::max(1, std::stoi(arg.substr(8)));
+    else rest.push_back(argv[k]);
+  }
+  int rest_count = static_cast<int>(rest.size());
+  Kokkos::ScopeGuard kokkos(rest_count, rest.data());
+  Kokkos::Tools::Experimental::set_allocate_data_callback(mpmflow::on_allocate);
+  Kokkos::Tools::Experimental::set_deallocate_data_callback(mpmflow::on_deallocate);
+  mpmflow::register_benchmarks(mpmflow::parse_cells(cells), matrix_only, steps);
+  benchmark::Initialize(&rest_count, rest.data());
+  if (benchmark::ReportUnrecognizedArguments(rest_count, rest.data())) return 1;
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  mpmflow::current_run() = mpmflow::Run();  // its Views go before Kokkos is finalized
+  return 0;
+}

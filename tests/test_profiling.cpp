@@ -1,0 +1,73 @@
+// Every phase of a step is a named Kokkos profiling region, so the standard Kokkos tools (and
+// nsys / rocprof through their connectors) see the step's structure under the names the run's
+// phase table prints. Checked through the Kokkos Tools region callbacks.
+#include <gtest/gtest.h>
+
+#include <set>
+#include <string>
+#include <vector>
+
+#include "case_config.hpp"
+#include "particles.hpp"
+#include "solver.hpp"
+
+namespace mpmflow {
+namespace {
+
+struct RegionLog {
+  std::vector<std::string> open;  // the region stack
+  std::set<std::string> seen;
+  bool unbalanced = false;
+};
+RegionLog& region_log() {
+  static RegionLog log;
+  return log;
+}
+void on_push(const char* name) {
+  region_log().open.push_back(name);
+  region_log().seen.insert(name);
+}
+void on_pop() {
+  if (region_log().open.empty()) region_log().unbalanced = true;
+  else region_log().open.pop_back();
+}
+
+// The regions two steps of a coarse cylinder run open (reordering every step).
+std::set<std::string> regions_of_two_steps(bool fused) {
+  const CaseConfig config = load_case_file(
+      std::string(MPMFLOW_SOURCE_DIR) + "/cases/cylinder_mach3.json",
+      {"domain/cells_x=40", "domain/cells_y=20", "numerics/reorder_interval=1",
+       std::string("numerics/fused_kernels=") + (fused ? "true" : "false")});
+  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+  Solver solver(config, slab, create_initial_particles(config, slab));
+  region_log() = RegionLog();
+  Kokkos::Tools::Experimental::set_push_region_callback(on_push);
+  Kokkos::Tools::Experimental::set_pop_region_callback(on_pop);
+  for (int k = 0; k < 2; ++k) solver.advance(solver.stable_time_step());
+  Kokkos::Tools::Experimental::set_push_region_callback(nullptr);
+  Kokkos::Tools::Experimental::set_pop_region_callback(nullptr);
+  EXPECT_FALSE(region_log().unbalanced);
+  EXPECT_TRUE(region_log().open.empty()) << "a region was left open: " << region_log().open.back();
+  // The phase table and the regions are the same names.
+  for (const auto& name : solver.timers().names()) EXPECT_TRUE(region_log().seen.count(name)) << name;
+  return region_log().seen;
+}
+
+TEST(Profiling, EveryPhaseIsANamedRegion) {
+  const std::set<std::string> regions = regions_of_two_steps(true);
+  for (const char* phase : {"time_step", "grid_reset", "p2g_mass_momentum_force", "halo_exchange",
+                            "boundary_conditions", "grid_momentum_update", "g2p_p2g_velocity_momentum",
+                            "grid_remap_velocity", "g2pd_particle_update", "particle_move", "migration",
+                            "cell_map", "reorder"})
+    EXPECT_TRUE(regions.count(phase)) << "no region " << phase;
+}
+
+TEST(Profiling, UnfusedKernelsAreRegionsOfTheirOwn) {
+  const std::set<std::string> regions = regions_of_two_steps(false);
+  EXPECT_TRUE(regions.count("g2p_velocity_acceleration"));
+  EXPECT_TRUE(regions.count("p2g_momentum_remap"));
+  EXPECT_FALSE(regions.count("g2p_p2g_velocity_momentum"));
+}
+
+}  // namespace
+}  // namespace mpmflow
