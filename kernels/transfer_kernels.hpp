@@ -132,6 +132,36 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 // The kernels below walk a stencil row by row (b along y, a along x) and use its tensor-product
 // form: phi(a, b) = wx[a] wy[b], so the y factor multiplies a whole row once.
 
+// value_c = sum_i F_c(node i) phi_i over stencil s: the interpolation of G2P.
+template <class StencilType, class NodeFunctor, int N>
+KOKKOS_INLINE_FUNCTION void interpolate(const StencilType& s, const NodeFunctor& node_functor, real_t (&value)[N]) {
+  constexpr int K = StencilType::width;
+  for (int c = 0; c < N; ++c) value[c] = 0;
+  for (int b = 0; b < K; ++b) {
+    real_t row[N];  // sum over the row of wx[a] F
+    for (int c = 0; c < N; ++c) row[c] = 0;
+    for (int a = 0; a < K; ++a) {
+      real_t node_value[N];
+      node_functor(s.node(a, b), node_value);
+      for (int c = 0; c < N; ++c) row[c] += s.wx[a] * node_value[c];
+    }
+    for (int c = 0; c < N; ++c) value[c] += s.wy[b] * row[c];
+  }
+}
+
+// node(i, first + c) += value_c phi_i over stencil s: the accumulation of P2G.
+template <class StencilType, class Access, int N>
+KOKKOS_INLINE_FUNCTION void accumulate(const StencilType& s, const Access& access, int first_component,
+                                       const real_t (&value)[N]) {
+  constexpr int K = StencilType::width;
+  for (int b = 0; b < K; ++b) {
+    real_t row[N];  // F wy[b]
+    for (int c = 0; c < N; ++c) row[c] = value[c] * s.wy[b];
+    for (int a = 0; a < K; ++a)
+      for (int c = 0; c < N; ++c) access(s.node(a, b), first_component + c) += s.wx[a] * row[c];
+  }
+}
+
 // P2G (eq. 16): node(i, c) += sum_p F_c(p) phi_i(X_p).
 template <class Shape, class ScatterViewType, class ParticleFunctor, class Traversal>
 void p2g(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& num_particles,
@@ -139,16 +169,9 @@ void p2g(const char* label, const Shape& shape, const ParticleLocations& particl
   constexpr int N = ParticleFunctor::num_components;
   for_each_particle_stencil(
       label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
-        constexpr int K = std::decay_t<decltype(s)>::width;
         real_t value[N];
         functor(p, value);
-        auto access = scatter.access();
-        for (int b = 0; b < K; ++b) {
-          real_t row[N];  // F wy[b]
-          for (int c = 0; c < N; ++c) row[c] = value[c] * s.wy[b];
-          for (int a = 0; a < K; ++a)
-            for (int c = 0; c < N; ++c) access(s.node(a, b), first_component + c) += s.wx[a] * row[c];
-        }
+        accumulate(s, scatter.access(), first_component, value);
       });
 }
 
@@ -218,19 +241,8 @@ void g2p(const char* label, const Shape& shape, const ParticleLocations& particl
   constexpr int N = NodeFunctor::num_components;
   for_each_particle_stencil(
       label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
-        constexpr int K = std::decay_t<decltype(s)>::width;
         real_t value[N];
-        for (int c = 0; c < N; ++c) value[c] = 0;
-        for (int b = 0; b < K; ++b) {
-          real_t row[N];  // sum over the row of wx[a] F
-          for (int c = 0; c < N; ++c) row[c] = 0;
-          for (int a = 0; a < K; ++a) {
-            real_t node_value[N];
-            node_functor(s.node(a, b), node_value);
-            for (int c = 0; c < N; ++c) row[c] += s.wx[a] * node_value[c];
-          }
-          for (int c = 0; c < N; ++c) value[c] += s.wy[b] * row[c];
-        }
+        interpolate(s, node_functor, value);
         sink(p, value);
       });
 }
@@ -250,28 +262,11 @@ void g2p_then_p2g(const char* label, const Shape& shape, const ParticleLocations
   constexpr int M = ParticleUpdate::num_components;
   for_each_particle_stencil(
       label, shape, particles, traversal, KOKKOS_LAMBDA(const index_t p, const auto& s) {
-        constexpr int K = std::decay_t<decltype(s)>::width;
         real_t value[N];
-        for (int c = 0; c < N; ++c) value[c] = 0;
-        for (int b = 0; b < K; ++b) {
-          real_t row[N];
-          for (int c = 0; c < N; ++c) row[c] = 0;
-          for (int a = 0; a < K; ++a) {
-            real_t node_value[N];
-            node_functor(s.node(a, b), node_value);
-            for (int c = 0; c < N; ++c) row[c] += s.wx[a] * node_value[c];
-          }
-          for (int c = 0; c < N; ++c) value[c] += s.wy[b] * row[c];
-        }
+        interpolate(s, node_functor, value);
         real_t out[M];
         update(p, value, out);
-        auto access = scatter.access();
-        for (int b = 0; b < K; ++b) {
-          real_t row[M];
-          for (int c = 0; c < M; ++c) row[c] = out[c] * s.wy[b];
-          for (int a = 0; a < K; ++a)
-            for (int c = 0; c < M; ++c) access(s.node(a, b), first_component + c) += s.wx[a] * row[c];
-        }
+        accumulate(s, scatter.access(), first_component, out);
       });
 }
 
