@@ -162,41 +162,164 @@ KOKKOS_INLINE_FUNCTION void accumulate(const StencilType& s, const Access& acces
   }
 }
 
+// The per-particle bodies of the kernels below are named functors with a templated call operator
+// (the stencil type depends on the shape), not generic lambdas: nvcc cannot pass a generic device
+// lambda into a template that launches its own device lambda.
+
+// P2G body: node(i, first + c) += F_c(p) phi_i(X_p).
+template <class Access, class ParticleFunctor>
+struct P2GBody {
+  static constexpr int N = ParticleFunctor::num_components;
+  Access scatter;
+  int first_component;
+  ParticleFunctor functor;
+  template <class StencilType>
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+    real_t value[N];
+    functor(p, value);
+    accumulate(s, scatter.access(), first_component, value);
+  }
+};
+
+// P2GD body: node(i, first + c) += G_c(p) . grad phi_i(X_p).
+template <class Access, class ParticleFunctor>
+struct P2GDBody {
+  static constexpr int N = ParticleFunctor::num_components;
+  Access scatter;
+  int first_component;
+  ParticleFunctor functor;
+  template <class StencilType>
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+    constexpr int K = StencilType::width;
+    real_t vector[N][2];
+    functor(p, vector);
+    auto access = scatter.access();
+    for (int b = 0; b < K; ++b) {
+      real_t row_x[N], row_y[N];  // G_x wy[b] and G_y gy[b]
+      for (int c = 0; c < N; ++c) {
+        row_x[c] = vector[c][0] * s.wy[b];
+        row_y[c] = vector[c][1] * s.gy[b];
+      }
+      for (int a = 0; a < K; ++a)
+        for (int c = 0; c < N; ++c)
+          access(s.node(a, b), first_component + c) += s.gx[a] * row_x[c] + s.wx[a] * row_y[c];
+    }
+  }
+};
+
+// P2G and P2GD body in one: F(p) phi_i into the value columns, G(p) . grad phi_i into the vector ones.
+template <class Access, class ValueFunctor, class VectorFunctor>
+struct P2GAndP2GDBody {
+  static constexpr int NV = ValueFunctor::num_components;
+  static constexpr int ND = VectorFunctor::num_components;
+  Access scatter;
+  int first_value_component;
+  ValueFunctor value_functor;
+  int first_vector_component;
+  VectorFunctor vector_functor;
+  template <class StencilType>
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+    constexpr int K = StencilType::width;
+    real_t value[NV];
+    real_t vector[ND][2];
+    value_functor(p, value);
+    vector_functor(p, vector);
+    auto access = scatter.access();
+    for (int b = 0; b < K; ++b) {
+      real_t row[NV], row_x[ND], row_y[ND];
+      for (int c = 0; c < NV; ++c) row[c] = value[c] * s.wy[b];
+      for (int c = 0; c < ND; ++c) {
+        row_x[c] = vector[c][0] * s.wy[b];
+        row_y[c] = vector[c][1] * s.gy[b];
+      }
+      for (int a = 0; a < K; ++a) {
+        const index_t node = s.node(a, b);
+        for (int c = 0; c < NV; ++c) access(node, first_value_component + c) += s.wx[a] * row[c];
+        for (int c = 0; c < ND; ++c)
+          access(node, first_vector_component + c) += s.gx[a] * row_x[c] + s.wx[a] * row_y[c];
+      }
+    }
+  }
+};
+
+// G2P body: value_c = sum_i F_c(node i) phi_i(X_p), handed to sink(p, value).
+template <class NodeFunctor, class ParticleSink>
+struct G2PBody {
+  static constexpr int N = NodeFunctor::num_components;
+  NodeFunctor node_functor;
+  ParticleSink sink;
+  template <class StencilType>
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+    real_t value[N];
+    interpolate(s, node_functor, value);
+    sink(p, value);
+  }
+};
+
+// G2P then P2G body: the interpolated value goes to update(p, value, out), and out is accumulated.
+template <class NodeFunctor, class ParticleUpdate, class Access>
+struct G2PThenP2GBody {
+  static constexpr int N = NodeFunctor::num_components;
+  static constexpr int M = ParticleUpdate::num_components;
+  NodeFunctor node_functor;
+  ParticleUpdate update;
+  Access scatter;
+  int first_component;
+  template <class StencilType>
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+    real_t value[N];
+    interpolate(s, node_functor, value);
+    real_t out[M];
+    update(p, value, out);
+    accumulate(s, scatter.access(), first_component, out);
+  }
+};
+
+// G2PD body: gradient_c = sum_i F_c(node i) grad phi_i(X_p), handed to sink(p, gradient).
+template <class NodeFunctor, class ParticleSink>
+struct G2PDBody {
+  static constexpr int N = NodeFunctor::num_components;
+  NodeFunctor node_functor;
+  ParticleSink sink;
+  template <class StencilType>
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+    constexpr int K = StencilType::width;
+    real_t gradient[N][2];
+    for (int c = 0; c < N; ++c) gradient[c][0] = gradient[c][1] = 0;
+    for (int b = 0; b < K; ++b) {
+      real_t row_w[N], row_g[N];  // sums over the row of wx[a] F and gx[a] F
+      for (int c = 0; c < N; ++c) row_w[c] = row_g[c] = 0;
+      for (int a = 0; a < K; ++a) {
+        real_t node_value[N];
+        node_functor(s.node(a, b), node_value);
+        for (int c = 0; c < N; ++c) {
+          row_w[c] += s.wx[a] * node_value[c];
+          row_g[c] += s.gx[a] * node_value[c];
+        }
+      }
+      for (int c = 0; c < N; ++c) {
+        gradient[c][0] += s.wy[b] * row_g[c];
+        gradient[c][1] += s.gy[b] * row_w[c];
+      }
+    }
+    sink(p, gradient);
+  }
+};
+
 // P2G (eq. 16): node(i, c) += sum_p F_c(p) phi_i(X_p).
 template <class Shape, class ScatterViewType, class ParticleFunctor, class Traversal>
-void p2g(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& num_particles,
+void p2g(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& traversal,
          ScatterViewType& scatter, int first_component, const ParticleFunctor& functor) {
-  constexpr int N = ParticleFunctor::num_components;
-  for_each_particle_stencil(
-      label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
-        real_t value[N];
-        functor(p, value);
-        accumulate(s, scatter.access(), first_component, value);
-      });
+  for_each_particle_stencil(label, shape, particles, traversal,
+                            P2GBody<ScatterViewType, ParticleFunctor>{scatter, first_component, functor});
 }
 
 // P2GD (eq. 18): node(i, c) += sum_p G_c(p) . grad phi_i(X_p).
 template <class Shape, class ScatterViewType, class ParticleFunctor, class Traversal>
-void p2gd(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& num_particles,
+void p2gd(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& traversal,
           ScatterViewType& scatter, int first_component, const ParticleFunctor& functor) {
-  constexpr int N = ParticleFunctor::num_components;
-  for_each_particle_stencil(
-      label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
-        constexpr int K = std::decay_t<decltype(s)>::width;
-        real_t vector[N][2];
-        functor(p, vector);
-        auto access = scatter.access();
-        for (int b = 0; b < K; ++b) {
-          real_t row_x[N], row_y[N];  // G_x wy[b] and G_y gy[b]
-          for (int c = 0; c < N; ++c) {
-            row_x[c] = vector[c][0] * s.wy[b];
-            row_y[c] = vector[c][1] * s.gy[b];
-          }
-          for (int a = 0; a < K; ++a)
-            for (int c = 0; c < N; ++c)
-              access(s.node(a, b), first_component + c) += s.gx[a] * row_x[c] + s.wx[a] * row_y[c];
-        }
-      });
+  for_each_particle_stencil(label, shape, particles, traversal,
+                            P2GDBody<ScatterViewType, ParticleFunctor>{scatter, first_component, functor});
 }
 
 // P2G and P2GD fused (Algorithm 1, step 3): one pass, one stencil evaluation per particle, for
@@ -204,47 +327,21 @@ void p2gd(const char* label, const Shape& shape, const ParticleLocations& partic
 // same ScatterView. Worth it because the stencil (and for GIMP its weights) dominates both.
 template <class Shape, class ScatterViewType, class ValueFunctor, class VectorFunctor, class Traversal>
 void p2g_and_p2gd(const char* label, const Shape& shape, const ParticleLocations& particles,
-                  const Traversal& num_particles, ScatterViewType& scatter, int first_value_component,
+                  const Traversal& traversal, ScatterViewType& scatter, int first_value_component,
                   const ValueFunctor& value_functor, int first_vector_component,
                   const VectorFunctor& vector_functor) {
-  constexpr int NV = ValueFunctor::num_components;
-  constexpr int ND = VectorFunctor::num_components;
-  for_each_particle_stencil(
-      label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
-        constexpr int K = std::decay_t<decltype(s)>::width;
-        real_t value[NV];
-        real_t vector[ND][2];
-        value_functor(p, value);
-        vector_functor(p, vector);
-        auto access = scatter.access();
-        for (int b = 0; b < K; ++b) {
-          real_t row[NV], row_x[ND], row_y[ND];
-          for (int c = 0; c < NV; ++c) row[c] = value[c] * s.wy[b];
-          for (int c = 0; c < ND; ++c) {
-            row_x[c] = vector[c][0] * s.wy[b];
-            row_y[c] = vector[c][1] * s.gy[b];
-          }
-          for (int a = 0; a < K; ++a) {
-            const index_t node = s.node(a, b);
-            for (int c = 0; c < NV; ++c) access(node, first_value_component + c) += s.wx[a] * row[c];
-            for (int c = 0; c < ND; ++c)
-              access(node, first_vector_component + c) += s.gx[a] * row_x[c] + s.wx[a] * row_y[c];
-          }
-        }
-      });
+  for_each_particle_stencil(label, shape, particles, traversal,
+                            P2GAndP2GDBody<ScatterViewType, ValueFunctor, VectorFunctor>{
+                                scatter, first_value_component, value_functor, first_vector_component,
+                                vector_functor});
 }
 
 // G2P (eq. 17): value_c(p) = sum_i F_c(node i) phi_i(X_p), handed to sink(p, value).
 template <class Shape, class NodeFunctor, class ParticleSink>
 void g2p(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,
          const NodeFunctor& node_functor, const ParticleSink& sink) {
-  constexpr int N = NodeFunctor::num_components;
-  for_each_particle_stencil(
-      label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
-        real_t value[N];
-        interpolate(s, node_functor, value);
-        sink(p, value);
-      });
+  for_each_particle_stencil(label, shape, particles, num_particles,
+                            G2PBody<NodeFunctor, ParticleSink>{node_functor, sink});
 }
 
 // G2P then P2G in one pass (Algorithm 1, steps 6-8 fused): for each particle, value_c(p) =
@@ -258,46 +355,17 @@ template <class Shape, class NodeFunctor, class ParticleUpdate, class ScatterVie
 void g2p_then_p2g(const char* label, const Shape& shape, const ParticleLocations& particles,
                   const Traversal& traversal, const NodeFunctor& node_functor, const ParticleUpdate& update,
                   ScatterViewType& scatter, int first_component) {
-  constexpr int N = NodeFunctor::num_components;
-  constexpr int M = ParticleUpdate::num_components;
-  for_each_particle_stencil(
-      label, shape, particles, traversal, KOKKOS_LAMBDA(const index_t p, const auto& s) {
-        real_t value[N];
-        interpolate(s, node_functor, value);
-        real_t out[M];
-        update(p, value, out);
-        accumulate(s, scatter.access(), first_component, out);
-      });
+  for_each_particle_stencil(label, shape, particles, traversal,
+                            G2PThenP2GBody<NodeFunctor, ParticleUpdate, ScatterViewType>{
+                                node_functor, update, scatter, first_component});
 }
 
 // G2PD (eq. 19): gradient_c(p) = sum_i F_c(node i) grad phi_i(X_p), handed to sink(p, gradient).
 template <class Shape, class NodeFunctor, class ParticleSink>
 void g2pd(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,
           const NodeFunctor& node_functor, const ParticleSink& sink) {
-  constexpr int N = NodeFunctor::num_components;
-  for_each_particle_stencil(
-      label, shape, particles, num_particles, KOKKOS_LAMBDA(const index_t p, const auto& s) {
-        constexpr int K = std::decay_t<decltype(s)>::width;
-        real_t gradient[N][2];
-        for (int c = 0; c < N; ++c) gradient[c][0] = gradient[c][1] = 0;
-        for (int b = 0; b < K; ++b) {
-          real_t row_w[N], row_g[N];  // sums over the row of wx[a] F and gx[a] F
-          for (int c = 0; c < N; ++c) row_w[c] = row_g[c] = 0;
-          for (int a = 0; a < K; ++a) {
-            real_t node_value[N];
-            node_functor(s.node(a, b), node_value);
-            for (int c = 0; c < N; ++c) {
-              row_w[c] += s.wx[a] * node_value[c];
-              row_g[c] += s.gx[a] * node_value[c];
-            }
-          }
-          for (int c = 0; c < N; ++c) {
-            gradient[c][0] += s.wy[b] * row_g[c];
-            gradient[c][1] += s.gy[b] * row_w[c];
-          }
-        }
-        sink(p, gradient);
-      });
+  for_each_particle_stencil(label, shape, particles, num_particles,
+                            G2PDBody<NodeFunctor, ParticleSink>{node_functor, sink});
 }
 
 }  // namespace mpmflow

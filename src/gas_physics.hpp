@@ -1,10 +1,7 @@
 #pragma once
 // Inviscid perfect gas with artificial viscosity: the pointwise physics of the particle update
 // (paper eqs. 3-5 and Algorithm 1, step 10), as small pure functions usable on host and device.
-#include <cmath>
-#include <limits>
-
-#include "kernels/types.hpp"
+#include "kernels/device_math.hpp"
 
 namespace mpmflow {
 
@@ -21,7 +18,7 @@ KOKKOS_INLINE_FUNCTION real_t perfect_gas_specific_energy(real_t gamma, real_t d
 // stays defined long enough for the caller to report the bad particle.
 KOKKOS_INLINE_FUNCTION real_t sound_speed(real_t gamma, real_t pressure, real_t density) {
   const real_t c2 = gamma * pressure / density;
-  return c2 > 0 ? std::sqrt(c2) : real_t(0);
+  return c2 > 0 ? square_root(c2) : real_t(0);
 }
 
 // von Neumann-Richtmyer (c0, quadratic) + Landshoff (c1, linear) artificial viscosity in its
@@ -50,14 +47,14 @@ KOKKOS_INLINE_FUNCTION real_t advanced_specific_energy(real_t specific_energy, r
 
 // Fastest signal at a particle, |v| + c, which bounds the explicit time step.
 KOKKOS_INLINE_FUNCTION real_t signal_speed(real_t vx, real_t vy, real_t sound_speed_value) {
-  return std::sqrt(vx * vx + vy * vy) + sound_speed_value;
+  return square_root(vx * vx + vy * vy) + sound_speed_value;
 }
 
 // A particle state the solver can go on from: a positive density, a pressure and a finite signal
 // speed below the largest real (which the time step uses as its "invalid" mark). Every comparison
 // is false on NaN, so NaN anywhere fails it.
 KOKKOS_INLINE_FUNCTION bool is_valid_gas_state(real_t density, real_t pressure, real_t signal_speed_value) {
-  return density > 0 && pressure == pressure && signal_speed_value < std::numeric_limits<real_t>::max();
+  return density > 0 && pressure == pressure && signal_speed_value < largest_real;
 }
 
 }  // namespace mpmflow

@@ -8,6 +8,7 @@
 
 #include "case_config.hpp"
 #include "grid.hpp"
+#include "kernels/device_math.hpp"
 
 namespace mpmflow {
 
@@ -61,7 +62,7 @@ struct ObstacleSet {
     SignedDistance nearest{real_t(1e30), 1, 0};
     for (index_t c = 0; c < num_circles; ++c) {
       const real_t dx = x - circles(c, 0), dy = y - circles(c, 1);
-      const real_t r = std::sqrt(dx * dx + dy * dy);
+      const real_t r = square_root(dx * dx + dy * dy);
       const real_t d = r - circles(c, 2);
       if (d < nearest.distance) nearest = r > 0 ? SignedDistance{d, dx / r, dy / r} : SignedDistance{d, 1, 0};
     }
@@ -93,12 +94,12 @@ struct ObstacleSet {
       // Even-odd rule: count the edges a ray towards +x crosses.
       if ((y0 > y) != (y1 > y) && x < x0 + (y - y0) * ex / ey) inside = !inside;
     }
-    const real_t d = std::sqrt(best_squared);
+    const real_t d = square_root(best_squared);
     const real_t sign = inside ? real_t(-1) : real_t(1);
     if (d > 0) return {sign * d, sign * best_dx / d, sign * best_dy / d};
     // On the boundary: the edge's outward normal (edges run counter-clockwise).
     const real_t ex = edges(best_edge, 2) - edges(best_edge, 0), ey = edges(best_edge, 3) - edges(best_edge, 1);
-    const real_t length = std::sqrt(ex * ex + ey * ey);
+    const real_t length = square_root(ex * ex + ey * ey);
     return {0, ey / length, -ex / length};
   }
 };

@@ -1,0 +1,20 @@
+#pragma once
+// Math and numeric limits for code that runs on the device. std:: functions are host functions
+// under nvcc; Kokkos provides device-callable ones, under Kokkos::Experimental in Kokkos 3.x and
+// under Kokkos:: from Kokkos 4.0 on (where the Experimental spellings are deprecated code).
+#include "kernels/types.hpp"
+
+namespace mpmflow {
+
+KOKKOS_INLINE_FUNCTION real_t square_root(real_t x) {
+#if KOKKOS_VERSION >= 40000
+  return Kokkos::sqrt(x);
+#else
+  return Kokkos::Experimental::sqrt(x);
+#endif
+}
+
+// The largest finite real_t (Kokkos' numeric traits: the same spelling in Kokkos 3.4 and 4.x).
+constexpr real_t largest_real = Kokkos::Experimental::finite_max<real_t>::value;
+
+}  // namespace mpmflow
