@@ -44,6 +44,7 @@
 #include <vector>
 
 #include "case_config.hpp"
+#include "kernels/particle_sort.hpp"
 #include "particles.hpp"
 #include "solver.hpp"
 
@@ -118,14 +119,7 @@ void shuffle_particles(ParticleState& particles) {
   auto host = Kokkos::create_mirror_view(permutation);
   for (index_t k = 0; k < n; ++k) host(k) = order[k];
   Kokkos::deep_copy(permutation, host);
-  particles.for_each_field_mutable([&](auto& field) {
-    using ViewType = std::decay_t<decltype(field)>;
-    ViewType copy(std::string("shuffle_copy"), n);
-    Kokkos::parallel_for(
-        "shuffle", Kokkos::RangePolicy<ExecutionSpace>(0, n),
-        KOKKOS_LAMBDA(const index_t k) { copy(k) = field(permutation(k)); });
-    Kokkos::deep_copy(Kokkos::subview(field, std::make_pair(index_t(0), n)), copy);
-  });
+  particles.for_each_field([&](const auto& field) { permute_particle_field(field, permutation, n); });
 }
 
 // One solver at a time (rows of the same run are adjacent): creating it is timed for memory only.
@@ -167,30 +161,30 @@ struct Traffic {
   double node_bytes;      // per node
   bool stencil;           // GIMP reads the two stretches
 };
-const std::map<std::string, Traffic>& traffic_model() {
-  static const std::map<std::string, Traffic> model = {
-      {"p2g_mass_momentum_force", {68, 80, true}},
-      {"g2p_p2g_velocity_momentum", {84, 64, true}},
-      {"g2p_velocity_acceleration", {68, 32, true}},
-      {"p2g_momentum_remap", {44, 32, true}},
-      {"g2pd_particle_update", {76, 16, true}},
-      {"particle_move", {48, 0, false}},
-      {"cell_map", {20, 0, false}},
-      {"time_step", {32, 0, false}},
-      {"reorder", {364, 0, false}},
-      {"grid_reset", {0, 56, false}},
-      {"grid_momentum_update", {0, 88, false}},
-      {"grid_remap_velocity", {0, 40, false}}};
+const std::map<Phase, Traffic>& traffic_model() {
+  static const std::map<Phase, Traffic> model = {
+      {Phase::p2g_mass_momentum_force, {68, 80, true}},
+      {Phase::g2p_p2g_velocity_momentum, {84, 64, true}},
+      {Phase::g2p_velocity_acceleration, {68, 32, true}},
+      {Phase::p2g_momentum_remap, {44, 32, true}},
+      {Phase::g2pd_particle_update, {76, 16, true}},
+      {Phase::particle_move, {48, 0, false}},
+      {Phase::cell_map, {20, 0, false}},
+      {Phase::time_step, {32, 0, false}},
+      {Phase::reorder, {364, 0, false}},
+      {Phase::grid_reset, {0, 56, false}},
+      {Phase::grid_momentum_update, {0, 88, false}},
+      {Phase::grid_remap_velocity, {0, 40, false}}};
   return model;
 }
 
 // Model bytes of one call of `phase` on this run.
-double phase_bytes(const std::string& phase, const Run& run) {
+double phase_bytes(Phase phase, const Run& run) {
   const auto it = traffic_model().find(phase);
   if (it == traffic_model().end()) return 0;
   double per_particle = it->second.particle_bytes;
   if (run.spec.shape == "gimp" && it->second.stencil) per_particle += 16;
-  if (run.spec.shape == "gimp" && phase == "g2pd_particle_update") per_particle += 16;
+  if (run.spec.shape == "gimp" && phase == Phase::g2pd_particle_update) per_particle += 16;
   return per_particle * run.particles + it->second.node_bytes * run.nodes;
 }
 
@@ -221,19 +215,18 @@ void BM_Triad(benchmark::State& state) {
 }
 
 // One phase, per call, in real steps. Manual time: only that phase's time counts.
-void BM_Kernel(benchmark::State& state, RunSpec spec, std::string phase) {
+void BM_Kernel(benchmark::State& state, RunSpec spec, Phase phase) {
   Run& run = run_for(spec);
   Solver& solver = *run.solver;
   double seconds = 0;
   long calls = 0;
   for (auto _ : state) {
-    const auto& timers = solver.timers();
-    const bool seen = std::find(timers.names().begin(), timers.names().end(), phase) != timers.names().end();
-    const double before = seen ? timers.entry(phase).seconds : 0;
-    const long calls_before = seen ? timers.entry(phase).calls : 0;
+    const PhaseTimers& timers = solver.timers();
+    const double before = timers.entry(phase).seconds;
+    const long calls_before = timers.entry(phase).calls;
     solver.advance(solver.stable_time_step());
-    if (std::find(timers.names().begin(), timers.names().end(), phase) == timers.names().end()) {
-      state.SkipWithError(("no phase " + phase + " in this run").c_str());
+    if (!timers.seen(phase)) {
+      state.SkipWithError((std::string("no phase ") + phase_name(phase) + " in this run").c_str());
       return;
     }
     const double dt = timers.entry(phase).seconds - before;
@@ -262,9 +255,9 @@ void BM_Step(benchmark::State& state, RunSpec spec) {
   }
   const PhaseTimers& timers = solver.timers();
   double step_seconds = 0, step_bytes = 0;
-  for (const auto& name : timers.names()) {
-    step_seconds += timers.entry(name).seconds / steps;
-    step_bytes += phase_bytes(name, run) * timers.entry(name).calls / steps;
+  for (const Phase phase : timers.phases()) {
+    step_seconds += timers.entry(phase).seconds / steps;
+    step_bytes += phase_bytes(phase, run) * timers.entry(phase).calls / steps;
   }
   const Solver::MemoryUse memory = solver.memory_use();
   state.counters["particles"] = run.particles;
@@ -296,13 +289,14 @@ std::vector<long> parse_cells(const std::string& list) {
 // row costs the same whatever share of the step its kernel takes.
 void register_benchmarks(const std::vector<long>& cell_counts, bool matrix_only, int steps_per_row) {
   benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->Arg(1 << 25)->Unit(benchmark::kMillisecond)->UseRealTime();
-  const std::vector<std::string> kernels = {"p2g_mass_momentum_force", "g2p_p2g_velocity_momentum",
-                                            "g2pd_particle_update",    "particle_move",
-                                            "cell_map",                "time_step"};
-  auto add_run = [&](const RunSpec& spec, const std::vector<std::string>& phases) {
+  const std::vector<Phase> kernels = {Phase::p2g_mass_momentum_force, Phase::g2p_p2g_velocity_momentum,
+                                      Phase::g2pd_particle_update,    Phase::particle_move,
+                                      Phase::cell_map,                Phase::time_step};
+  auto add_run = [&](const RunSpec& spec, const std::vector<Phase>& phases) {
     const std::string suffix = "/" + spec.key();
-    for (const auto& phase : phases)
-      benchmark::RegisterBenchmark(("BM_Kernel/" + phase + suffix).c_str(), BM_Kernel, spec, phase)
+    for (const Phase phase : phases)
+      benchmark::RegisterBenchmark((std::string("BM_Kernel/") + phase_name(phase) + suffix).c_str(), BM_Kernel, spec,
+                                   phase)
           ->Unit(benchmark::kMillisecond)
           ->UseManualTime()
           ->Iterations(steps_per_row);
@@ -318,8 +312,8 @@ void register_benchmarks(const std::vector<long>& cell_counts, bool matrix_only,
         spec.target_cells = cells;
         spec.ppc_axis = ppc_axis;
         spec.reorder_interval = reorder;
-        std::vector<std::string> phases = kernels;
-        if (reorder) phases.push_back("reorder");
+        std::vector<Phase> phases = kernels;
+        if (reorder) phases.push_back(Phase::reorder);
         add_run(spec, phases);
       }
   if (matrix_only) return;
@@ -328,11 +322,11 @@ void register_benchmarks(const std::vector<long>& cell_counts, bool matrix_only,
   for (const char* p2g : {"duplicated", "atomic", "sorted"}) {
     RunSpec s = target;
     s.p2g = p2g;
-    add_run(s, {"p2g_mass_momentum_force", "g2p_p2g_velocity_momentum"});
+    add_run(s, {Phase::p2g_mass_momentum_force, Phase::g2p_p2g_velocity_momentum});
   }
   RunSpec unfused = target;
   unfused.fused = false;
-  add_run(unfused, {"g2p_velocity_acceleration", "p2g_momentum_remap"});
+  add_run(unfused, {Phase::g2p_velocity_acceleration, Phase::p2g_momentum_remap});
   RunSpec linear = target;
   linear.shape = "linear";
   add_run(linear, kernels);

@@ -12,6 +12,17 @@
 
 namespace mpmflow {
 
+// view(k) = old view(permutation(k)) for k < n: the first n entries of a particle View put in the
+// order `permutation` gives (through a temporary, since the permutation may move any entry).
+template <class ViewType>
+void permute_particle_field(const ViewType& view, const IndexView& permutation, index_t n) {
+  ViewType copy(std::string("permute_copy"), n);
+  Kokkos::parallel_for(
+      "permute", Kokkos::RangePolicy<ExecutionSpace>(0, n),
+      KOKKOS_LAMBDA(const index_t k) { copy(k) = view(permutation(k)); });
+  Kokkos::deep_copy(Kokkos::subview(view, std::make_pair(index_t(0), n)), copy);
+}
+
 // Particles grouped by cell, in increasing particle index within each cell: the same grouping
 // for any thread count (the coloured P2G and deterministic reordering depend on it). Kokkos'
 // BinSort places particles in their bins with atomic counters, in an order that depends on thread
@@ -68,12 +79,7 @@ class CellOrder {
   // Reorders particle Views into the grouped order (deterministic Algorithm 1 step xii).
   template <class ViewType>
   void apply(const ViewType& view) const {
-    ViewType copy(std::string("cell_order_copy"), num_particles_);
-    const IndexView particle = particle_;
-    Kokkos::parallel_for(
-        "cell_order_permute", Kokkos::RangePolicy<ExecutionSpace>(0, num_particles_),
-        KOKKOS_LAMBDA(const index_t k) { copy(k) = view(particle(k)); });
-    Kokkos::deep_copy(Kokkos::subview(view, std::make_pair(index_t(0), num_particles_)), copy);
+    permute_particle_field(view, particle_, num_particles_);
   }
 
   const IndexView& cell_offset() const { return cell_offset_; }

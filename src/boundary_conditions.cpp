@@ -8,47 +8,24 @@
 namespace mpmflow {
 namespace {
 
-// The local nodes of one line parallel to `side`, `layer` lines outside it (0: the side itself):
-// its fixed local index and whether it is a column (x fixed) or a row.
-struct SideLine {
-  index_t fixed;
-  bool column;
-  bool present;  // the slab holds the line
-};
-
-SideLine side_line(const GridSlab& slab, Side side, int layer) {
-  const GridGeometry& geo = slab.geometry;
-  switch (side) {
-    case left_side: {
-      const index_t i = slab.local_node_x(-layer);
-      return {i, true, i >= 0 && i < geo.nodes_x};
-    }
-    case right_side: {
-      const index_t i = slab.local_node_x(slab.global_cells_x + layer);
-      return {i, true, i >= 0 && i < geo.nodes_x};
-    }
-    case bottom_side: {
-      const index_t j = slab.local_node_y(-layer);
-      return {j, false, j >= 0 && j < geo.nodes_y};
-    }
-    default: {
-      const index_t j = slab.local_node_y(slab.global_cells_y + layer);
-      return {j, false, j >= 0 && j < geo.nodes_y};
-    }
-  }
+// Calls f(node, i, j) for the nodes (i, j) of a rectangle of local node indices, one thread each.
+template <class F>
+void for_nodes(const char* label, const GridGeometry& geo, const IndexRange2D& nodes, const F& f) {
+  if (nodes.empty()) return;
+  const index_t width = nodes.extent_x();
+  const index_t i0 = nodes.begin_x, j0 = nodes.begin_y;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, nodes.size()), KOKKOS_LAMBDA(const index_t k) {
+        const index_t i = i0 + k % width, j = j0 + k / width;
+        f(geo.node_index(i, j), i, j);
+      });
 }
 
-// Calls f(node, k) for the nodes of a side line, k the local index along the line.
-template <class F>
-void for_line_nodes(const char* label, const GridGeometry& geo, const SideLine& line, const F& f) {
-  if (!line.present) return;
-  const index_t count = line.column ? geo.nodes_y : geo.nodes_x;
-  const index_t fixed = line.fixed;
-  const bool column = line.column;
-  Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, count), KOKKOS_LAMBDA(const index_t k) {
-        f(column ? geo.node_index(fixed, k) : geo.node_index(k, fixed), k);
-      });
+// The nodes of `line` that are nodes of the domain (not the ghost nodes beyond its corners).
+IndexRange2D within_domain(const GridSlab& slab, const IndexRange2D& line) {
+  const IndexRange2D domain = slab.domain_node_space();
+  return {std::max(line.begin_x, domain.begin_x), std::min(line.end_x, domain.end_x),
+          std::max(line.begin_y, domain.begin_y), std::min(line.end_y, domain.end_y)};
 }
 
 // (Free functions rather than private members: CUDA forbids device lambdas in private members.)
@@ -61,21 +38,23 @@ void apply_open_sides(const GridSlab& slab, const BoundaryType (&side_type)[num_
     const Side side = static_cast<Side>(s);
     if (side_type[s] == BoundaryType::inflow) {
       for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer)
-        for_line_nodes("inflow_nodes", geo, side_line(slab, side, layer), KOKKOS_LAMBDA(const index_t node, index_t) {
-          const real_t m = state(node, GridFields::mass);
-          momentum(node, column_x) = m * vx;
-          momentum(node, column_x + 1) = m * vy;
-          if (with_force) {
-            state(node, GridFields::force_x) = 0;
-            state(node, GridFields::force_y) = 0;
-          }
-        });
+        for_nodes("inflow_nodes", geo, slab.boundary_node_line(side, layer),
+                  KOKKOS_LAMBDA(const index_t node, index_t, index_t) {
+                    const real_t m = state(node, GridFields::mass);
+                    momentum(node, column_x) = m * vx;
+                    momentum(node, column_x + 1) = m * vy;
+                    if (with_force) {
+                      state(node, GridFields::force_x) = 0;
+                      state(node, GridFields::force_y) = 0;
+                    }
+                  });
     } else if (side_type[s] == BoundaryType::outflow && with_force) {
       // Traction of the free-stream pressure: -p_inf n times the integral of N_i along the side,
       // one node spacing per node and half of one at the side's ends.
-      const SideLine line = side_line(slab, side, 0);
-      const bool column = line.column;
+      const IndexRange2D line = within_domain(slab, slab.boundary_node_line(side, 0));
+      const bool column = side == left_side || side == right_side;  // the side is a node column
       const real_t spacing = column ? geo.spacing_y : geo.spacing_x;
+      // Local indices along the side of its first and last node (global nodes 0 and cells).
       const index_t first = column ? slab.local_node_y(0) : slab.local_node_x(0);
       const index_t last = column ? slab.local_node_y(slab.global_cells_y) : slab.local_node_x(slab.global_cells_x);
       const real_t outward = (side == left_side || side == bottom_side) ? real_t(-1) : real_t(1);
@@ -87,8 +66,8 @@ void apply_open_sides(const GridSlab& slab, const BoundaryType (&side_type)[num_
       // a nearly empty node it would throw the few particles there into the domain.
       const real_t normal_spacing = column ? geo.spacing_x : geo.spacing_y;
       const real_t full_mass_per_length = free_stream.density * normal_spacing / 2;
-      for_line_nodes("outflow_pressure", geo, line, KOKKOS_LAMBDA(const index_t node, const index_t k) {
-        if (k < first || k > last) return;
+      for_nodes("outflow_pressure", geo, line, KOKKOS_LAMBDA(const index_t node, const index_t i, const index_t j) {
+        const index_t k = column ? j : i;
         const real_t length = (k == first || k == last) ? spacing / 2 : spacing;
         const real_t full_mass = full_mass_per_length * length;
         const real_t mass = state(node, GridFields::mass);
@@ -104,12 +83,10 @@ void apply_slip_walls(const GridSlab& slab, const BoundaryType (&side_type)[num_
   const GridGeometry& geo = slab.geometry;
   for (int s = 0; s < num_sides; ++s) {
     if (side_type[s] != BoundaryType::slip_wall) continue;
-    for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer) {
-      const SideLine line = side_line(slab, static_cast<Side>(s), layer);
-      const int normal_column = column_x + (line.column ? 0 : 1);
-      for_line_nodes("slip_wall", geo, line,
-                     KOKKOS_LAMBDA(const index_t node, index_t) { fields(node, normal_column) = 0; });
-    }
+    const int normal_column = column_x + (s == left_side || s == right_side ? 0 : 1);
+    for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer)
+      for_nodes("slip_wall", geo, slab.boundary_node_line(static_cast<Side>(s), layer),
+                KOKKOS_LAMBDA(const index_t node, index_t, index_t) { fields(node, normal_column) = 0; });
   }
 }
 
@@ -193,6 +170,15 @@ void ParticleBoundaries::prepare_step(real_t dt, long step_index) {
     const real_t swept = inward_speed * dt;
     strip_depth[k] = swept > 0 ? std::min(swept, cell_depth) : cell_depth;
   }
+}
+
+void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt, long step) {
+  ParticleBoundaries rules = boundaries;  // with this step's strips and random stream
+  rules.prepare_step(dt, step);
+  const ParticleState pt = particles;
+  Kokkos::parallel_for(
+      "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count),
+      KOKKOS_LAMBDA(const index_t p) { rules.move(p, dt, pt); });
 }
 
 }  // namespace mpmflow

@@ -11,8 +11,6 @@
 
 namespace mpmflow {
 
-enum Side : int { left_side = 0, right_side, bottom_side, top_side, num_sides };
-
 // On the grid, per side (the side's node line and the ghost lines beyond it, which GIMP stencils
 // reach):
 // - inflow: the node velocity is the free stream, momentum = node mass x v_inf, no force;
@@ -83,6 +81,10 @@ struct ParticleBoundaries {
     return has_obstacles && obstacles(x, y).distance < 0;
   }
 };
+
+// Algorithm 1, step 11: every particle moved by dt V-bar, with the rules above, for the step
+// numbered `step` (the random stream of recycling).
+void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt, long step);
 
 // ---- inline definitions --------------------------------------------------------------------------
 

@@ -56,8 +56,11 @@ class ObjectReader {
     if (!bounds.contains(d)) fail(at(key), bounds.phrase, v);
     return d;
   }
-  double number_or(const std::string& key, double fallback, const Bounds& bounds) {
-    return has(key) ? number(key, bounds) : fallback;
+  // Reads `key` into `target` when present; otherwise `target` keeps its value: the default of
+  // the config struct's initialiser, the one place defaults are written.
+  template <class T>
+  void optional_number(const std::string& key, T& target, const Bounds& bounds) {
+    if (has(key)) target = static_cast<T>(number(key, bounds));
   }
 
   long integer(const std::string& key, long min, long max) {
@@ -68,15 +71,16 @@ class ObjectReader {
     if (i < min || i > max) fail(at(key), phrase, v);
     return i;
   }
-  long integer_or(const std::string& key, long fallback, long min, long max) {
-    return has(key) ? integer(key, min, max) : fallback;
+  template <class T>
+  void optional_integer(const std::string& key, T& target, long min, long max) {
+    if (has(key)) target = static_cast<T>(integer(key, min, max));
   }
 
-  bool boolean_or(const std::string& key, bool fallback) {
-    if (!has(key)) return fallback;
+  void optional_boolean(const std::string& key, bool& target) {
+    if (!has(key)) return;
     const json& v = require(key);
     if (!v.is_boolean()) fail(at(key), "true or false", v);
-    return v.get<bool>();
+    target = v.get<bool>();
   }
 
   std::string string(const std::string& key) {
@@ -85,20 +89,28 @@ class ObjectReader {
     return v.get<std::string>();
   }
 
-  template <class Enum>
-  Enum choice(const std::string& key, const std::vector<std::pair<std::string, Enum>>& options) {
+  // One of the names of `table` (an enum's EnumNames table, or a table of its own).
+  template <class T, size_t N>
+  T choice(const std::string& key, const EnumName<T> (&table)[N]) {
     const json& v = require(key);
     std::string phrase = "one of";
-    for (size_t i = 0; i < options.size(); ++i) phrase += (i ? ", " : " ") + options[i].first;
+    for (size_t i = 0; i < N; ++i) phrase += (i ? ", " : " ") + std::string(table[i].name);
     if (v.is_string())
-      for (const auto& option : options)
-        if (option.first == v.get<std::string>()) return option.second;
+      for (const EnumName<T>& entry : table)
+        if (v.get<std::string>() == entry.name) return entry.value;
     fail(at(key), phrase, v);
   }
   template <class Enum>
-  Enum choice_or(const std::string& key, Enum fallback,
-                 const std::vector<std::pair<std::string, Enum>>& options) {
-    return has(key) ? choice(key, options) : fallback;
+  Enum choice(const std::string& key) {
+    return choice(key, EnumNames<Enum>::table);
+  }
+  template <class T, size_t N>
+  void optional_choice(const std::string& key, T& target, const EnumName<T> (&table)[N]) {
+    if (has(key)) target = choice(key, table);
+  }
+  template <class Enum>
+  void optional_choice(const std::string& key, Enum& target) {
+    optional_choice(key, target, EnumNames<Enum>::table);
   }
 
   ObjectReader object(const std::string& key) { return ObjectReader(require(key), source_, at(key)); }
@@ -165,9 +177,6 @@ std::pair<double, double> read_range(ObjectReader& r, const std::string& key) {
   return {v[0].get<double>(), v[1].get<double>()};
 }
 
-const std::vector<std::pair<std::string, BoundaryType>> kBoundaryTypes = {
-    {"slip_wall", BoundaryType::slip_wall}, {"inflow", BoundaryType::inflow}, {"outflow", BoundaryType::outflow}};
-
 // Reads an array of two numbers [a, b].
 std::pair<double, double> read_pair(ObjectReader& r, const std::string& key, const std::string& phrase) {
   const json& v = r.array(key);
@@ -199,10 +208,7 @@ Polygon read_points_file_through(const std::string& path, PointsFiles* points_fi
 ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const DomainConfig& domain,
                              const std::filesystem::path& case_directory, PointsFiles* points_files) {
   ObstacleConfig obstacle;
-  obstacle.shape = r.choice("type", std::vector<std::pair<std::string, ObstacleShape>>{
-                                        {"circle", ObstacleShape::circle},
-                                        {"rectangle", ObstacleShape::rectangle},
-                                        {"polygon", ObstacleShape::polygon}});
+  obstacle.shape = r.choice<ObstacleShape>("type");
   obstacle.description = where + " (" + to_string(obstacle.shape) + ")";
   double x_lo, x_hi, y_lo, y_hi;  // bounding box
   if (obstacle.shape == ObstacleShape::circle) {
@@ -229,8 +235,8 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
         throw ConfigError(r.source() + ": " + r.at("file") + ": " + e.what());
       }
       PolygonTransform transform;
-      transform.scale = r.number_or("scale", 1.0, Bounds::positive());
-      transform.rotation_degrees = r.number_or("rotation_degrees", 0.0, Bounds::any());
+      r.optional_number("scale", transform.scale, Bounds::positive());
+      r.optional_number("rotation_degrees", transform.rotation_degrees, Bounds::any());
       if (r.has("angle_of_attack_degrees")) {  // the aerodynamicist's name: nose up is a clockwise rotation
         if (r.has("rotation_degrees"))
           throw ConfigError(r.source() + ": " + r.at("angle_of_attack_degrees") +
@@ -290,12 +296,12 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
   return obstacle;
 }
 
-BoundaryType read_boundary(ObjectReader& boundaries, const std::string& side) {
-  if (!boundaries.has(side)) return BoundaryType::slip_wall;
+// A side's boundary type into `type`, when the case names one.
+void read_boundary(ObjectReader& boundaries, const std::string& side, BoundaryType& type) {
+  if (!boundaries.has(side)) return;
   ObjectReader r = boundaries.object(side);
-  const BoundaryType type = r.choice("type", kBoundaryTypes);
+  type = r.choice<BoundaryType>("type");
   r.finish();
-  return type;
 }
 
 CaseConfig parse_document(const json& doc, const std::string& source, PointsFiles* points_files) {
@@ -327,11 +333,11 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
 
   if (root.has("physics")) {
     ObjectReader r = root.object("physics");
-    cfg.physics.gamma = r.number_or("gamma", 1.4, Bounds::at_least(1.0 + 1e-12, "a number > 1"));
+    r.optional_number("gamma", cfg.physics.gamma, Bounds::at_least(1.0 + 1e-12, "a number > 1"));
     if (r.has("artificial_viscosity")) {
       ObjectReader av = r.object("artificial_viscosity");
-      cfg.physics.viscosity_quadratic = av.number_or("c0", 1.0, Bounds::non_negative());
-      cfg.physics.viscosity_linear = av.number_or("c1", 1.0, Bounds::non_negative());
+      av.optional_number("c0", cfg.physics.viscosity_quadratic, Bounds::non_negative());
+      av.optional_number("c1", cfg.physics.viscosity_linear, Bounds::non_negative());
       av.finish();
     }
     r.finish();
@@ -340,17 +346,17 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
   {
     ObjectReader r = root.object("time");
     cfg.time.end_time = r.number("end", Bounds::positive());
-    cfg.time.cfl = r.number_or("cfl", 0.5, Bounds::between(0, 1, true, "a number in (0, 1]"));
-    cfg.time.max_steps = r.integer_or("max_steps", 0, 0, std::numeric_limits<long>::max());
+    r.optional_number("cfl", cfg.time.cfl, Bounds::between(0, 1, true, "a number in (0, 1]"));
+    r.optional_integer("max_steps", cfg.time.max_steps, 0, std::numeric_limits<long>::max());
     r.finish();
   }
 
   if (root.has("boundaries")) {
     ObjectReader r = root.object("boundaries");
-    cfg.boundaries.left = read_boundary(r, "left");
-    cfg.boundaries.right = read_boundary(r, "right");
-    cfg.boundaries.bottom = read_boundary(r, "bottom");
-    cfg.boundaries.top = read_boundary(r, "top");
+    read_boundary(r, "left", cfg.boundaries.left);
+    read_boundary(r, "right", cfg.boundaries.right);
+    read_boundary(r, "bottom", cfg.boundaries.bottom);
+    read_boundary(r, "top", cfg.boundaries.top);
     r.finish();
   }
   const bool open_sides = cfg.boundaries.any(BoundaryType::inflow) || cfg.boundaries.any(BoundaryType::outflow);
@@ -378,10 +384,8 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
 
   {
     ObjectReader r = root.object("particles");
-    cfg.particles.placement =
-        r.choice_or("placement", ParticlePlacement::regular,
-                    {{"regular", ParticlePlacement::regular}, {"random", ParticlePlacement::random}});
-    cfg.particles.seed = static_cast<unsigned long>(r.integer_or("seed", 0, 0, std::numeric_limits<long>::max()));
+    r.optional_choice("placement", cfg.particles.placement);
+    r.optional_integer("seed", cfg.particles.seed, 0, std::numeric_limits<long>::max());
     const json& per_cell = r.array("per_cell");
     if (per_cell.size() != 2 || !per_cell[0].is_number_integer() || !per_cell[1].is_number_integer() ||
         per_cell[0].get<long>() < 1 || per_cell[1].get<long>() < 1 || per_cell[0].get<long>() > 64 ||
@@ -426,30 +430,26 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
       cfg.output.directory = r.string("directory");
       if (cfg.output.directory.empty()) r.fail("/output/directory", "a non-empty path", doc["output"]["directory"]);
     }
-    cfg.output.snapshots = static_cast<int>(r.integer_or("snapshots", 10, 0, 100000));
-    cfg.output.checkpoint_interval = static_cast<long>(r.integer_or("checkpoint_interval", 0, 0, 1L << 40));
-    cfg.output.checkpoints_kept = static_cast<int>(r.integer_or("checkpoints_kept", 2, 0, 1 << 20));
+    r.optional_integer("snapshots", cfg.output.snapshots, 0, 100000);
+    r.optional_integer("checkpoint_interval", cfg.output.checkpoint_interval, 0, 1L << 40);
+    r.optional_integer("checkpoints_kept", cfg.output.checkpoints_kept, 0, 1 << 20);
     r.finish();
   }
 
   if (root.has("decomposition")) {
     ObjectReader r = root.object("decomposition");
-    cfg.decomposition.axis = r.choice_or("axis", 0, {{"x", 0}, {"y", 1}});
-    cfg.decomposition.balance_interval = static_cast<int>(r.integer_or("balance_interval", 0, 0, 1 << 30));
+    static constexpr EnumName<int> axes[] = {{"x", 0}, {"y", 1}};
+    r.optional_choice("axis", cfg.decomposition.axis, axes);
+    r.optional_integer("balance_interval", cfg.decomposition.balance_interval, 0, 1 << 30);
     r.finish();
   }
 
   if (root.has("numerics")) {
     ObjectReader r = root.object("numerics");
-    cfg.numerics.reorder_interval = static_cast<int>(r.integer_or("reorder_interval", 0, 0, 1 << 30));
-    cfg.numerics.p2g = r.choice_or("p2g", P2GStrategy::automatic,
-                                   {{"automatic", P2GStrategy::automatic},
-                                    {"duplicated", P2GStrategy::duplicated},
-                                    {"atomic", P2GStrategy::atomic},
-                                    {"sorted", P2GStrategy::sorted}});
-    cfg.numerics.shape_function = r.choice_or("shape_function", ShapeFunction::gimp,
-                                              {{"linear", ShapeFunction::linear}, {"gimp", ShapeFunction::gimp}});
-    cfg.numerics.fused_kernels = r.boolean_or("fused_kernels", true);
+    r.optional_integer("reorder_interval", cfg.numerics.reorder_interval, 0, 1 << 30);
+    r.optional_choice("p2g", cfg.numerics.p2g);
+    r.optional_choice("shape_function", cfg.numerics.shape_function);
+    r.optional_boolean("fused_kernels", cfg.numerics.fused_kernels);
     r.finish();
   }
 
@@ -516,42 +516,6 @@ PointsFiles PointsFiles::deserialise(const std::string& text) {
     for (const auto& p : it.value()) points.emplace_back(p[0].get<double>(), p[1].get<double>());
   }
   return result;
-}
-
-const char* to_string(BoundaryType type) {
-  switch (type) {
-    case BoundaryType::slip_wall: return "slip_wall";
-    case BoundaryType::inflow: return "inflow";
-    case BoundaryType::outflow: return "outflow";
-  }
-  return "?";
-}
-
-const char* to_string(ObstacleShape shape) {
-  switch (shape) {
-    case ObstacleShape::circle: return "circle";
-    case ObstacleShape::rectangle: return "rectangle";
-    case ObstacleShape::polygon: return "polygon";
-  }
-  return "?";
-}
-
-const char* to_string(P2GStrategy strategy) {
-  switch (strategy) {
-    case P2GStrategy::automatic: return "automatic";
-    case P2GStrategy::duplicated: return "duplicated";
-    case P2GStrategy::atomic: return "atomic";
-    case P2GStrategy::sorted: return "sorted";
-  }
-  return "?";
-}
-
-const char* to_string(ShapeFunction shape) {
-  switch (shape) {
-    case ShapeFunction::linear: return "linear";
-    case ShapeFunction::gimp: return "gimp";
-  }
-  return "?";
 }
 
 }  // namespace mpmflow

@@ -157,9 +157,51 @@ std::string load_case_document(const std::string& path, const std::vector<std::s
 // from disk are added to it.
 CaseConfig parse_case(const std::string& json_text, const std::string& source, PointsFiles* points_files = nullptr);
 
-const char* to_string(BoundaryType type);
-const char* to_string(ObstacleShape shape);
-const char* to_string(P2GStrategy strategy);
-const char* to_string(ShapeFunction shape);
+// ---- The names of enum values in case files and messages: one table per enum, which the parser
+// reads and to_string prints.
+
+template <class Enum>
+struct EnumName {
+  const char* name;
+  Enum value;
+};
+
+template <class Enum>
+struct EnumNames;  // specialised for each enum of a case file: static constexpr EnumName<Enum> table[]
+
+template <>
+struct EnumNames<BoundaryType> {
+  static constexpr EnumName<BoundaryType> table[] = {
+      {"slip_wall", BoundaryType::slip_wall}, {"inflow", BoundaryType::inflow}, {"outflow", BoundaryType::outflow}};
+};
+template <>
+struct EnumNames<ParticlePlacement> {
+  static constexpr EnumName<ParticlePlacement> table[] = {{"regular", ParticlePlacement::regular},
+                                                          {"random", ParticlePlacement::random}};
+};
+template <>
+struct EnumNames<ObstacleShape> {
+  static constexpr EnumName<ObstacleShape> table[] = {
+      {"circle", ObstacleShape::circle}, {"rectangle", ObstacleShape::rectangle}, {"polygon", ObstacleShape::polygon}};
+};
+template <>
+struct EnumNames<P2GStrategy> {
+  static constexpr EnumName<P2GStrategy> table[] = {{"automatic", P2GStrategy::automatic},
+                                                    {"duplicated", P2GStrategy::duplicated},
+                                                    {"atomic", P2GStrategy::atomic},
+                                                    {"sorted", P2GStrategy::sorted}};
+};
+template <>
+struct EnumNames<ShapeFunction> {
+  static constexpr EnumName<ShapeFunction> table[] = {{"linear", ShapeFunction::linear}, {"gimp", ShapeFunction::gimp}};
+};
+
+// The case-file name of an enum value.
+template <class Enum, class = decltype(EnumNames<Enum>::table)>
+const char* to_string(Enum value) {
+  for (const EnumName<Enum>& entry : EnumNames<Enum>::table)
+    if (entry.value == value) return entry.name;
+  return "?";
+}
 
 }  // namespace mpmflow

@@ -49,11 +49,9 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
     h5::write_attribute(file, "cells_x", solver.slab().global_cells_x);
     h5::write_attribute(file, "cells_y", solver.slab().global_cells_y);
     h5::write_attribute(file, "decomposition_axis", solver.decomposition().axis);
-    h5::write_attribute(file, "initial_mass", clock.initial_totals.mass);
-    h5::write_attribute(file, "initial_momentum_x", clock.initial_totals.momentum_x);
-    h5::write_attribute(file, "initial_momentum_y", clock.initial_totals.momentum_y);
-    h5::write_attribute(file, "initial_kinetic_energy", clock.initial_totals.kinetic_energy);
-    h5::write_attribute(file, "initial_internal_energy", clock.initial_totals.internal_energy);
+    clock.initial_totals.for_each_total([&](const char* name, double value) {
+      h5::write_attribute(file, (std::string("initial_") + name).c_str(), value);
+    });
     h5::write_attribute(file, "node_mass_threshold", solver.node_mass_threshold());
     std::vector<long long> slab_begin(solver.decomposition().cell_begin.begin(), solver.decomposition().cell_begin.end());
     h5::write_replicated(file, "slab_begin", slab_begin, context);
@@ -105,11 +103,9 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
     clock.time = h5::read_attribute(file, "time");
     clock.step = static_cast<long>(h5::read_attribute(file, "step"));
     clock.next_snapshot = static_cast<int>(h5::read_attribute(file, "next_snapshot"));
-    clock.initial_totals.mass = h5::read_attribute(file, "initial_mass");
-    clock.initial_totals.momentum_x = h5::read_attribute(file, "initial_momentum_x");
-    clock.initial_totals.momentum_y = h5::read_attribute(file, "initial_momentum_y");
-    clock.initial_totals.kinetic_energy = h5::read_attribute(file, "initial_kinetic_energy");
-    clock.initial_totals.internal_energy = h5::read_attribute(file, "initial_internal_energy");
+    clock.initial_totals.for_each_total([&](const char* name, double& value) {
+      value = h5::read_attribute(file, (std::string("initial_") + name).c_str());
+    });
     clock.node_mass_threshold = h5::read_attribute(file, "node_mass_threshold");
     const int written_ranks = static_cast<int>(h5::read_attribute(file, "num_ranks"));
     const int axis = static_cast<int>(h5::read_attribute(file, "decomposition_axis"));

@@ -11,6 +11,24 @@ struct ConservationTotals {
   double kinetic_energy = 0;
   double internal_energy = 0;
   double total_energy() const { return kinetic_energy + internal_energy; }
+
+  // Calls f(name, value) for every total: the one list for the sums over ranks, diagnostics.csv,
+  // the snapshots' and the checkpoints' attributes.
+  template <class F>
+  void for_each_total(F&& f) {
+    visit(*this, f);
+  }
+  template <class F>
+  void for_each_total(F&& f) const {
+    visit(*this, f);
+  }
+
+ private:
+  template <class Self, class F>
+  static void visit(Self& self, F& f) {
+    f("mass", self.mass), f("momentum_x", self.momentum_x), f("momentum_y", self.momentum_y);
+    f("kinetic_energy", self.kinetic_energy), f("internal_energy", self.internal_energy);
+  }
 };
 
 class DiagnosticsCalculator {

@@ -2,24 +2,61 @@
 // The Cartesian Q1 grid as a slab of the global grid: the global node range, the range this rank
 // owns and one ghost layer on each side. A single-rank run is the slab that owns everything, so
 // the MPI decomposition only has to add communication, never a second code path.
+//
+// Every index range of a slab comes from its queries (after Cabana's LocalGrid::indexSpace):
+// owned and ghosted nodes and cells, in local or global indices; the node lines shared with a
+// neighbouring slab; the node lines on and beyond a side of the domain. The boundary conditions,
+// the halo exchange, the output, particle migration and load balancing all ask the slab.
 #include "case_config.hpp"
 #include "kernels/grid_geometry.hpp"
 
 namespace mpmflow {
 
+// The sides of the domain.
+enum Side : int { left_side = 0, right_side, bottom_side, top_side, num_sides };
+
+// Index rectangle [begin_x, end_x) x [begin_y, end_y) of nodes or cells.
+struct IndexRange2D {
+  index_t begin_x = 0, end_x = 0;
+  index_t begin_y = 0, end_y = 0;
+
+  index_t extent_x() const { return end_x > begin_x ? end_x - begin_x : 0; }
+  index_t extent_y() const { return end_y > begin_y ? end_y - begin_y : 0; }
+  index_t size() const { return extent_x() * extent_y(); }
+  bool empty() const { return size() == 0; }
+  index_t begin(int axis) const { return axis == 0 ? begin_x : begin_y; }
+  index_t end(int axis) const { return axis == 0 ? end_x : end_y; }
+  bool operator==(const IndexRange2D& o) const {
+    return begin_x == o.begin_x && end_x == o.end_x && begin_y == o.begin_y && end_y == o.end_y;
+  }
+};
+
+// Which part of the slab an index query asks for.
+enum class Ownership {
+  owned,    // what this slab answers for: its cells; its nodes, each node of the domain on one slab
+  ghosted,  // everything held locally, ghost layers included
+};
+enum class Entity { node, cell };
+enum class Indexing { local, global };
+
 struct GridSlab {
   static constexpr int ghost_layers = 1;
+  // Node lines a slab shares with each neighbour: those around their common face.
+  static constexpr int shared_lines = 2 * ghost_layers + 1;
 
   // The global grid.
   index_t global_cells_x = 0;
   index_t global_cells_y = 0;
   real_t domain_x_min = 0, domain_x_max = 0, domain_y_min = 0, domain_y_max = 0;
+  // The axis the domain is cut along into slabs (0: x, 1: y).
+  int axis = 0;
 
   // Cells owned by this rank, in global cell indices: [begin, end).
   index_t owned_cell_begin_x = 0, owned_cell_end_x = 0;
   index_t owned_cell_begin_y = 0, owned_cell_end_y = 0;
 
   // Global index of local node (0, 0); negative on the slab that holds the domain's lower edge.
+  // Local cell (i, j) has local node (i, j) as its lower-left corner, so cells share the offset.
   index_t node_offset_x = 0;
   index_t node_offset_y = 0;
 
@@ -29,15 +66,40 @@ struct GridSlab {
     return geometry.spacing_x < geometry.spacing_y ? geometry.spacing_x : geometry.spacing_y;
   }
   real_t cell_area() const { return geometry.spacing_x * geometry.spacing_y; }
-  // Local index of global node column i / row j (may lie outside the local range).
+  index_t global_cells(int along) const { return along == 0 ? global_cells_x : global_cells_y; }
+  index_t node_offset(int along) const { return along == 0 ? node_offset_x : node_offset_y; }
+  // Local index of global node column i / row j (may lie outside the local range), and back.
   index_t local_node_x(index_t global_i) const { return global_i - node_offset_x; }
   index_t local_node_y(index_t global_j) const { return global_j - node_offset_y; }
+
+  // The nodes or cells of `ownership`, in local or global indices.
+  IndexRange2D index_space(Ownership ownership, Entity entity, Indexing indexing) const;
+  // The node lines shared with the neighbouring slab below (direction -1) or above (+1) along
+  // `axis`, in local indices; empty where this slab reaches the domain's edge (no neighbour).
+  IndexRange2D shared_node_space(int direction) const;
+  // The local nodes of the global node line `layer` lines outside `side` (0: the side itself),
+  // all along it, ghosts included; empty where the slab does not hold that line.
+  IndexRange2D boundary_node_line(Side side, int layer) const;
+  // The nodes of the domain (global nodes 0 .. cells on each axis) held locally, in local indices.
+  IndexRange2D domain_node_space() const;
+
+  // Global cell index along `along` of the point (x, y) (it may lie outside this slab),
+  // clamped to the domain: the arithmetic of GridGeometry::cell_of on the global grid.
+  KOKKOS_INLINE_FUNCTION index_t global_cell_along(int along, real_t x, real_t y) const {
+    const real_t local = along == 0 ? GridGeometry::floor_div(x - geometry.origin_x, geometry.spacing_x)
+                                    : GridGeometry::floor_div(y - geometry.origin_y, geometry.spacing_y);
+    const index_t cell = static_cast<index_t>(local) + (along == 0 ? node_offset_x : node_offset_y);
+    const index_t cells = along == 0 ? global_cells_x : global_cells_y;
+    return cell < 0 ? 0 : (cell >= cells ? cells - 1 : cell);
+  }
 };
 
-// The slab owning global cells [cell_begin_x, cell_end_x) x all rows.
-GridSlab make_grid_slab(const DomainConfig& domain, index_t cell_begin_x, index_t cell_end_x);
 // The slab owning global cells [cell_begin, cell_end) along `axis` (0: x, 1: y), all cells across.
 GridSlab make_grid_slab(const DomainConfig& domain, int axis, index_t cell_begin, index_t cell_end);
+// The slab owning global cells [cell_begin_x, cell_end_x) x all rows.
+inline GridSlab make_grid_slab(const DomainConfig& domain, index_t cell_begin_x, index_t cell_end_x) {
+  return make_grid_slab(domain, 0, cell_begin_x, cell_end_x);
+}
 
 // Node fields of one slab. `state` holds the step's P2G results; `momentum_remap` the second
 // momentum P2G (Algorithm 1, step 8), kept apart so the mass column stays intact beside it.
@@ -56,6 +118,9 @@ struct GridFields {
     remap_velocity_y,
     num_per_unit_mass_columns
   };
+  // The columns of a projection of the particles' mass and momentum (grid output): the first
+  // three of `state`.
+  static constexpr int num_projection_columns = momentum_y + 1;
 
   NodeFieldsView state;
   NodeFieldsView momentum_remap;

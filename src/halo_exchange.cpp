@@ -1,105 +1,89 @@
 #include "halo_exchange.hpp"
 
 namespace mpmflow {
+#ifdef MPMFLOW_HAVE_MPI
 namespace {
 
-// Node of element (component c, line l, position k) of a packed buffer of shared lines.
-struct SharedLines {
+// The nodes of an index rectangle, numbered k = i + extent_x j from its lower-left node: element
+// (component c, k) of a packed buffer.
+struct PackedNodes {
   GridGeometry geometry;
-  int axis;
-  index_t first_line;
-  index_t line_length;
-  KOKKOS_INLINE_FUNCTION index_t node(index_t l, index_t k) const {
-    return axis == 0 ? geometry.node_index(first_line + l, k) : geometry.node_index(k, first_line + l);
+  IndexRange2D nodes;
+  KOKKOS_INLINE_FUNCTION index_t node(index_t k) const {
+    const index_t width = nodes.end_x - nodes.begin_x;
+    return geometry.node_index(nodes.begin_x + k % width, nodes.begin_y + k / width);
   }
 };
 
-void pack(const SharedLines& lines, const NodeFieldsView& fields, int first, int count, const RealView& buffer) {
-  const index_t per_component = HaloExchange::shared_lines * lines.line_length;
+void pack(const PackedNodes& lines, const NodeFieldsView& fields, int first, int count, const RealView& buffer) {
+  const index_t per_component = lines.nodes.size();
   Kokkos::parallel_for(
       "halo_pack", Kokkos::RangePolicy<ExecutionSpace>(0, per_component * count), KOKKOS_LAMBDA(const index_t s) {
-        const index_t c = s / per_component, rest = s % per_component;
-        buffer(s) = fields(lines.node(rest / lines.line_length, rest % lines.line_length), first + c);
+        buffer(s) = fields(lines.node(s % per_component), first + s / per_component);
       });
 }
 
-void add_unpacked(const SharedLines& lines, const NodeFieldsView& fields, int first, int count,
+void add_unpacked(const PackedNodes& lines, const NodeFieldsView& fields, int first, int count,
                   const RealView& buffer) {
-  const index_t per_component = HaloExchange::shared_lines * lines.line_length;
+  const index_t per_component = lines.nodes.size();
   Kokkos::parallel_for(
       "halo_add", Kokkos::RangePolicy<ExecutionSpace>(0, per_component * count), KOKKOS_LAMBDA(const index_t s) {
-        const index_t c = s / per_component, rest = s % per_component;
-        fields(lines.node(rest / lines.line_length, rest % lines.line_length), first + c) += buffer(s);
+        fields(lines.node(s % per_component), first + s / per_component) += buffer(s);
       });
 }
 
 }  // namespace
+#endif
 
-HaloExchange::HaloExchange(const GridSlab& slab, const SlabDecomposition& decomposition,
-                           const ParallelContext& context, int max_components)
-    : geometry_(slab.geometry), axis_(decomposition.axis), context_(&context) {
-  line_length_ = axis_ == 0 ? geometry_.nodes_y : geometry_.nodes_x;
-  const int rank = context.rank(), ranks = decomposition.num_ranks();
-  if (ranks > 1) {
-    lower_rank_ = rank > 0 ? rank - 1 : -1;
-    upper_rank_ = rank + 1 < ranks ? rank + 1 : -1;
-  }
-  const index_t size = shared_lines * line_length_ * max_components;
-  auto make = [size](const char* label) {
-    Buffer b;
-    b.device = RealView(std::string(label), static_cast<size_t>(size));
-    b.host = Kokkos::create_mirror_view(b.device);
-    return b;
+HaloExchange::HaloExchange(const GridSlab& slab, const ParallelContext& context, int max_components)
+    : geometry_(slab.geometry), context_(context) {
+  auto connect = [&](Neighbour& neighbour, int direction, const char* send_label, const char* receive_label) {
+    // A slab run alone (a single-process solver on part of the grid) has no one to share with.
+    const int rank = context.rank() + direction;
+    if (rank < 0 || rank >= context.size()) return;
+    neighbour.nodes = slab.shared_node_space(direction);
+    if (neighbour.nodes.empty()) return;
+    neighbour.rank = rank;
+    const size_t size = static_cast<size_t>(neighbour.nodes.size()) * max_components;
+    neighbour.send = RealView(std::string(send_label), size);
+    neighbour.receive = RealView(std::string(receive_label), size);
+    neighbour.send_host = Kokkos::create_mirror_view(neighbour.send);
+    neighbour.receive_host = Kokkos::create_mirror_view(neighbour.receive);
   };
-  if (lower_rank_ >= 0) {
-    send_lower_ = make("halo_send_lower");
-    receive_lower_ = make("halo_receive_lower");
-  }
-  if (upper_rank_ >= 0) {
-    send_upper_ = make("halo_send_upper");
-    receive_upper_ = make("halo_receive_upper");
-  }
+  connect(lower_, -1, "halo_send_lower", "halo_receive_lower");
+  connect(upper_, +1, "halo_send_upper", "halo_receive_upper");
 }
 
-void HaloExchange::sum_shared_nodes(const NodeFieldsView& fields, int first_component, int num_components) {
+void HaloExchange::sum_shared_nodes(const NodeFieldsView& fields, int first_component, int num_components) const {
   if (!active()) return;
 #ifdef MPMFLOW_HAVE_MPI
-  const index_t nodes_along = axis_ == 0 ? geometry_.nodes_x : geometry_.nodes_y;
-  const SharedLines lower{geometry_, axis_, 0, line_length_};
-  const SharedLines upper{geometry_, axis_, nodes_along - shared_lines, line_length_};
-  const int count = shared_lines * line_length_ * num_components;
-  if (lower_rank_ >= 0) pack(lower, fields, first_component, num_components, send_lower_.device);
-  if (upper_rank_ >= 0) pack(upper, fields, first_component, num_components, send_upper_.device);
+  const Neighbour* neighbours[2] = {&lower_, &upper_};
+  for (const Neighbour* n : neighbours)
+    if (n->rank >= 0) pack({geometry_, n->nodes}, fields, first_component, num_components, n->send);
   Kokkos::fence();
 
   // Host staging unless MPI may read device memory (host back-ends, or GPU-aware MPI asked for).
-  const bool direct = context_->gpu_aware || Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
-  if (!direct) {
-    if (lower_rank_ >= 0) Kokkos::deep_copy(send_lower_.host, send_lower_.device);
-    if (upper_rank_ >= 0) Kokkos::deep_copy(send_upper_.host, send_upper_.device);
-  }
+  const bool direct = context_.gpu_aware || Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
   const MPI_Datatype type = sizeof(real_t) == 8 ? MPI_DOUBLE : MPI_FLOAT;
+  // Tags name the direction of travel, so that a slab's two messages to one rank never mix.
   constexpr int to_upper = 1, to_lower = 2;
   MPI_Request requests[4];
-  int n = 0;
-  const MPI_Comm comm = context_->comm();
-  if (lower_rank_ >= 0) {
-    MPI_Irecv(receive_lower_.mpi_data(direct), count, type, lower_rank_, to_upper, comm, &requests[n++]);
-    MPI_Isend(send_lower_.mpi_data(direct), count, type, lower_rank_, to_lower, comm, &requests[n++]);
+  int count = 0;
+  for (const Neighbour* n : neighbours) {
+    if (n->rank < 0) continue;
+    if (!direct) Kokkos::deep_copy(n->send_host, n->send);
+    const int size = n->nodes.size() * num_components;
+    const bool is_lower = n == &lower_;
+    MPI_Irecv(direct ? n->receive.data() : n->receive_host.data(), size, type, n->rank,
+              is_lower ? to_upper : to_lower, context_.comm(), &requests[count++]);
+    MPI_Isend(direct ? n->send.data() : n->send_host.data(), size, type, n->rank, is_lower ? to_lower : to_upper,
+              context_.comm(), &requests[count++]);
   }
-  if (upper_rank_ >= 0) {
-    MPI_Irecv(receive_upper_.mpi_data(direct), count, type, upper_rank_, to_lower, comm, &requests[n++]);
-    MPI_Isend(send_upper_.mpi_data(direct), count, type, upper_rank_, to_upper, comm, &requests[n++]);
-  }
-  MPI_Waitall(n, requests, MPI_STATUSES_IGNORE);
-
-  if (lower_rank_ >= 0) {
-    if (!direct) Kokkos::deep_copy(receive_lower_.device, receive_lower_.host);
-    add_unpacked(lower, fields, first_component, num_components, receive_lower_.device);
-  }
-  if (upper_rank_ >= 0) {
-    if (!direct) Kokkos::deep_copy(receive_upper_.device, receive_upper_.host);
-    add_unpacked(upper, fields, first_component, num_components, receive_upper_.device);
+  MPI_Waitall(count, requests, MPI_STATUSES_IGNORE);
+  for (const Neighbour* n : neighbours) {
+    if (n->rank < 0) continue;
+    if (!direct) Kokkos::deep_copy(n->receive, n->receive_host);
+    add_unpacked({geometry_, n->nodes}, fields, first_component, num_components, n->receive);
   }
 #else
   (void)fields;

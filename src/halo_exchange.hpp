@@ -3,12 +3,12 @@
 //
 // A slab's local nodes run from one ghost line below its first owned cell to one ghost line
 // above its last (GridSlab). Neighbouring slabs therefore both hold the three node lines around
-// their common face (global lines b - 1, b, b + 1), and a particle on either side may contribute
-// to any of them. After a P2G each rank sends its partial sums on those lines to the neighbour and
-// adds what it receives: both then hold the complete sums there (a + b on one side, b + a on the
-// other: bitwise the same), which is also every value G2P reads from a neighbour's nodes, so no
-// separate ghost refresh is needed. Slabs at least 3 cells wide (SlabDecomposition) share nodes
-// with their two neighbours only.
+// their common face (global lines b - 1, b, b + 1: GridSlab::shared_node_space), and a particle
+// on either side may contribute to any of them. After a P2G each rank sends its partial sums on
+// those lines to the neighbour and adds what it receives: both then hold the complete sums there
+// (a + b on one side, b + a on the other: bitwise the same), which is also every value G2P reads
+// from a neighbour's nodes, so no separate ghost refresh is needed. Slabs at least 3 cells wide
+// (SlabDecomposition) share nodes with their two neighbours only.
 #include "grid.hpp"
 #include "parallel.hpp"
 
@@ -16,31 +16,28 @@ namespace mpmflow {
 
 class HaloExchange {
  public:
-  static constexpr int shared_lines = 2 * GridSlab::ghost_layers + 1;
+  // For the slab of rank `context.rank()`, whose neighbours along the slab axis are ranks
+  // rank - 1 and rank + 1. Buffers for up to `max_components` node columns.
+  HaloExchange(const GridSlab& slab, const ParallelContext& context, int max_components);
 
-  HaloExchange(const GridSlab& slab, const SlabDecomposition& decomposition, const ParallelContext& context,
-               int max_components);
+  // Columns [first_component, first_component + num_components) of `fields`. Collective with
+  // the neighbours. Const: it changes `fields`, not the exchange (its buffers are scratch).
+  void sum_shared_nodes(const NodeFieldsView& fields, int first_component, int num_components) const;
 
-  // Columns [first_component, first_component + num_components) of `fields`.
-  void sum_shared_nodes(const NodeFieldsView& fields, int first_component, int num_components);
-
-  bool active() const { return lower_rank_ >= 0 || upper_rank_ >= 0; }
+  bool active() const { return !lower_.nodes.empty() || !upper_.nodes.empty(); }
 
  private:
-  GridGeometry geometry_;
-  int axis_ = 0;
-  index_t line_length_ = 0;  // nodes along one shared line
-  int lower_rank_ = -1;      // neighbour below along the axis, or -1
-  int upper_rank_ = -1;
-  const ParallelContext* context_ = nullptr;
-  // Device buffers and their host mirrors (the same Views on host back-ends) for host staging.
-  struct Buffer {
-    RealView device;
-    RealView::HostMirror host;
-    // What MPI reads or writes: the device buffer itself when MPI may touch device memory.
-    real_t* mpi_data(bool direct) const { return direct ? device.data() : host.data(); }
+  // One neighbour: its rank, the shared node lines, and device buffers with their host mirrors
+  // (the same Views on host back-ends) for host staging.
+  struct Neighbour {
+    int rank = -1;
+    IndexRange2D nodes;  // local indices, empty without a neighbour
+    RealView send, receive;
+    RealView::HostMirror send_host, receive_host;
   };
-  Buffer send_lower_, send_upper_, receive_lower_, receive_upper_;
+  GridGeometry geometry_;
+  ParallelContext context_;
+  Neighbour lower_, upper_;
 };
 
 }  // namespace mpmflow

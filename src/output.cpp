@@ -25,11 +25,15 @@ void write_file_atomically(const std::string& path, const std::string& text) {
 }
 
 void DiagnosticsLog::append(long step, double time, const ConservationTotals& t) {
-  if (text_.empty())
-    text_ = "step,time,mass,momentum_x,momentum_y,kinetic_energy,internal_energy,total_energy\n";
+  if (text_.empty()) {
+    text_ = "step,time";
+    t.for_each_total([&](const char* name, double) { text_ += std::string(",") + name; });
+    text_ += ",total_energy\n";
+  }
   std::ostringstream line;
-  line << std::setprecision(17) << step << ',' << time << ',' << t.mass << ',' << t.momentum_x << ','
-       << t.momentum_y << ',' << t.kinetic_energy << ',' << t.internal_energy << ',' << t.total_energy() << '\n';
+  line << std::setprecision(17) << step << ',' << time;
+  t.for_each_total([&](const char*, double value) { line << ',' << value; });
+  line << ',' << t.total_energy() << '\n';
   text_ += line.str();
   write_file_atomically(path_, text_);
 }
@@ -49,6 +53,40 @@ void DiagnosticsLog::resume(long step) {
 namespace {
 
 using h5::Handle;
+
+// The particle fields of a snapshot, each one dataset of /particles and one XDMF attribute:
+// f(name, view) for each (the positions are the (N, 2) geometry, written apart).
+template <class F>
+void for_each_snapshot_particle_field(const ParticleState& pt, F&& f) {
+  f("density", pt.density), f("pressure", pt.pressure), f("velocity_x", pt.velocity_x);
+  f("velocity_y", pt.velocity_y), f("specific_energy", pt.specific_energy), f("mass", pt.mass), f("id", pt.id);
+}
+
+// One node of the grid output: the particles' mass and momentum projected on it, the node's share
+// of the domain's area (a quarter cell per adjacent cell) and the mass below which it is empty.
+struct NodeSample {
+  real_t mass, momentum_x, momentum_y, area, mass_threshold;
+};
+
+// The grid fields of a snapshot, each one dataset of /grid and one XDMF attribute.
+struct GridSnapshotField {
+  const char* name;
+  real_t (*value)(const NodeSample&);
+};
+constexpr GridSnapshotField grid_snapshot_fields[] = {
+    {"node_density", [](const NodeSample& n) { return n.mass / n.area; }},
+    {"node_mass", [](const NodeSample& n) { return n.mass; }},
+    {"node_velocity_x",
+     [](const NodeSample& n) { return n.mass > n.mass_threshold ? n.momentum_x / n.mass : real_t(0); }},
+    {"node_velocity_y",
+     [](const NodeSample& n) { return n.mass > n.mass_threshold ? n.momentum_y / n.mass : real_t(0); }},
+};
+
+// XDMF's name and size of a dataset's number type.
+template <class T>
+const char* xdmf_number_type() {
+  return std::is_integral<T>::value ? "Int" : "Float";
+}
 
 // A particle field of every rank, one dataset in rank order.
 template <class ViewType>
@@ -90,9 +128,9 @@ void SnapshotWriter::resume(int num_written) {
   }
 }
 
-std::string SnapshotWriter::write(int index, long step, double time, Solver& solver,
+std::string SnapshotWriter::write(int index, long step, double time, const Solver& solver,
                                   const ConservationTotals& totals) {
-  solver.project_to_grid();
+  const NodeFieldsView projection = solver.grid_projection();
   const std::string name = file_name(index);
   const std::string path = directory_ + "/" + name;
   const std::string temporary = path + ".tmp";
@@ -115,11 +153,7 @@ std::string SnapshotWriter::write(int index, long step, double time, Solver& sol
     {
       Handle diag(H5Gcreate2(file, "diagnostics", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
                   "create group diagnostics");
-      h5::write_attribute(diag, "total_mass", totals.mass);
-      h5::write_attribute(diag, "momentum_x", totals.momentum_x);
-      h5::write_attribute(diag, "momentum_y", totals.momentum_y);
-      h5::write_attribute(diag, "kinetic_energy", totals.kinetic_energy);
-      h5::write_attribute(diag, "internal_energy", totals.internal_energy);
+      totals.for_each_total([&](const char* name, double value) { h5::write_attribute(diag, name, value); });
       h5::write_attribute(diag, "total_energy", totals.total_energy());
     }
 
@@ -134,50 +168,39 @@ std::string SnapshotWriter::write(int index, long step, double time, Solver& sol
         xy[2 * k + 1] = y(k);
       }
       h5::write_block(group, "position", {total, 2}, {offset, 0}, {static_cast<hsize_t>(n), 2}, xy.data(), context_);
-      write_particle_field(group, "velocity_x", pt.velocity_x, n, offset, total, context_);
-      write_particle_field(group, "velocity_y", pt.velocity_y, n, offset, total, context_);
-      write_particle_field(group, "density", pt.density, n, offset, total, context_);
-      write_particle_field(group, "pressure", pt.pressure, n, offset, total, context_);
-      write_particle_field(group, "specific_energy", pt.specific_energy, n, offset, total, context_);
-      write_particle_field(group, "mass", pt.mass, n, offset, total, context_);
-      write_particle_field(group, "id", pt.id, n, offset, total, context_);
+      for_each_snapshot_particle_field(pt, [&](const char* name, const auto& view) {
+        write_particle_field(group, name, view, n, offset, total, context_);
+      });
     }
 
     {
-      // Grid: the physical nodes this slab owns (its first node line, and its last only at the
-      // domain's edge, so each node is written by one rank), with nodal velocity and a nodal
-      // density (node mass over the node's share of cell area: a quarter cell per adjacent cell).
+      // Grid: the nodes this slab owns (each node of the domain is written by one rank).
       const GridGeometry& geo = slab.geometry;
-      const index_t gx0 = slab.owned_cell_begin_x, gy0 = slab.owned_cell_begin_y;
-      const index_t gx1 = slab.owned_cell_end_x + (slab.owned_cell_end_x == slab.global_cells_x ? 1 : 0);
-      const index_t gy1 = slab.owned_cell_end_y + (slab.owned_cell_end_y == slab.global_cells_y ? 1 : 0);
-      const index_t nx = gx1 - gx0, ny = gy1 - gy0;
-      auto state = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), solver.grid_fields().state);
-      std::vector<real_t> mass(nx * ny), vx(nx * ny), vy(nx * ny), density(nx * ny);
+      const IndexRange2D owned = slab.index_space(Ownership::owned, Entity::node, Indexing::global);
+      const index_t nx = owned.extent_x(), ny = owned.extent_y();
+      auto state = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), projection);
+      const size_t num_fields = sizeof(grid_snapshot_fields) / sizeof(grid_snapshot_fields[0]);
+      std::vector<std::vector<real_t>> values(num_fields, std::vector<real_t>(static_cast<size_t>(nx) * ny));
       const real_t threshold = solver.node_mass_threshold();
       for (index_t j = 0; j < ny; ++j)
         for (index_t i = 0; i < nx; ++i) {
-          const index_t node = geo.node_index(slab.local_node_x(gx0 + i), slab.local_node_y(gy0 + j));
-          const index_t out = i + nx * j;
-          const real_t m = state(node, GridFields::mass);
-          const bool edge_x = (gx0 + i == 0) || (gx0 + i == slab.global_cells_x);
-          const bool edge_y = (gy0 + j == 0) || (gy0 + j == slab.global_cells_y);
-          const real_t area = slab.cell_area() * (edge_x ? 0.5 : 1) * (edge_y ? 0.5 : 1);
-          mass[out] = m;
-          vx[out] = m > threshold ? state(node, GridFields::momentum_x) / m : 0;
-          vy[out] = m > threshold ? state(node, GridFields::momentum_y) / m : 0;
-          density[out] = m / area;
+          const index_t gi = owned.begin_x + i, gj = owned.begin_y + j;
+          const index_t node = geo.node_index(slab.local_node_x(gi), slab.local_node_y(gj));
+          const bool edge_x = gi == 0 || gi == slab.global_cells_x;
+          const bool edge_y = gj == 0 || gj == slab.global_cells_y;
+          const NodeSample sample{state(node, GridFields::mass), state(node, GridFields::momentum_x),
+                                  state(node, GridFields::momentum_y),
+                                  slab.cell_area() * (edge_x ? real_t(0.5) : 1) * (edge_y ? real_t(0.5) : 1), threshold};
+          for (size_t f = 0; f < num_fields; ++f) values[f][i + nx * j] = grid_snapshot_fields[f].value(sample);
         }
       Handle group(H5Gcreate2(file, "grid", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
                    "create group grid");
       const std::vector<hsize_t> dims = {static_cast<hsize_t>(slab.global_cells_y + 1),
                                          static_cast<hsize_t>(slab.global_cells_x + 1)};
-      const std::vector<hsize_t> start = {static_cast<hsize_t>(gy0), static_cast<hsize_t>(gx0)};
+      const std::vector<hsize_t> start = {static_cast<hsize_t>(owned.begin_y), static_cast<hsize_t>(owned.begin_x)};
       const std::vector<hsize_t> block = {static_cast<hsize_t>(ny), static_cast<hsize_t>(nx)};
-      h5::write_block(group, "node_mass", dims, start, block, mass.data(), context_);
-      h5::write_block(group, "node_velocity_x", dims, start, block, vx.data(), context_);
-      h5::write_block(group, "node_velocity_y", dims, start, block, vy.data(), context_);
-      h5::write_block(group, "node_density", dims, start, block, density.data(), context_);
+      for (size_t f = 0; f < num_fields; ++f)
+        h5::write_block(group, grid_snapshot_fields[f].name, dims, start, block, values[f].data(), context_);
       grid_nodes_x_ = slab.global_cells_x + 1;
       grid_nodes_y_ = slab.global_cells_y + 1;
       grid_origin_x_ = slab.domain_x_min;
@@ -195,31 +218,34 @@ std::string SnapshotWriter::write(int index, long step, double time, Solver& sol
   if (context_.is_root()) std::filesystem::rename(temporary, path);
 
   records_.push_back({name, time, static_cast<long>(total)});
-  if (context_.is_root()) write_xdmf();
+  if (context_.is_root()) write_xdmf(pt);
   return path;
 }
 
-void SnapshotWriter::write_xdmf() const {
+void SnapshotWriter::write_xdmf(const ParticleState& particles) const {
   const char* precision = sizeof(real_t) == 8 ? "8" : "4";
-  std::ostringstream particles, grid;
+  std::ostringstream particles_xdmf, grid;
   const char* header =
       "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n <Domain>\n";
-  particles << header << "  <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  particles_xdmf << header << "  <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   grid << header << "  <Grid Name=\"grid\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
   for (const Record& r : records_) {
-    particles << std::setprecision(15) << "   <Grid Name=\"particles\" GridType=\"Uniform\">\n"
+    particles_xdmf << std::setprecision(15) << "   <Grid Name=\"particles\" GridType=\"Uniform\">\n"
               << "    <Time Value=\"" << r.time << "\"/>\n"
               << "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << r.num_particles << "\"/>\n"
               << "    <Geometry GeometryType=\"XY\">\n"
               << "     <DataItem Dimensions=\"" << r.num_particles << " 2\" NumberType=\"Float\" Precision=\""
               << precision << "\" Format=\"HDF\">" << r.file << ":/particles/position</DataItem>\n"
               << "    </Geometry>\n";
-    for (const char* field : {"density", "pressure", "velocity_x", "velocity_y", "specific_energy", "mass"})
-      particles << "    <Attribute Name=\"" << field << "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                << "     <DataItem Dimensions=\"" << r.num_particles << "\" NumberType=\"Float\" Precision=\""
-                << precision << "\" Format=\"HDF\">" << r.file << ":/particles/" << field << "</DataItem>\n"
-                << "    </Attribute>\n";
-    particles << "   </Grid>\n";
+    for_each_snapshot_particle_field(particles, [&](const char* field, const auto& view) {
+      using Value = typename std::decay_t<decltype(view)>::non_const_value_type;
+      particles_xdmf << "    <Attribute Name=\"" << field << "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+                     << "     <DataItem Dimensions=\"" << r.num_particles << "\" NumberType=\""
+                     << xdmf_number_type<Value>() << "\" Precision=\"" << sizeof(Value) << "\" Format=\"HDF\">"
+                     << r.file << ":/particles/" << field << "</DataItem>\n"
+                     << "    </Attribute>\n";
+    });
+    particles_xdmf << "   </Grid>\n";
 
     grid << std::setprecision(15) << "   <Grid Name=\"grid\" GridType=\"Uniform\">\n"
          << "    <Time Value=\"" << r.time << "\"/>\n"
@@ -231,18 +257,18 @@ void SnapshotWriter::write_xdmf() const {
          << "     <DataItem Dimensions=\"2\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << grid_spacing_y_
          << " " << grid_spacing_x_ << "</DataItem>\n"
          << "    </Geometry>\n";
-    for (const char* field : {"node_density", "node_mass", "node_velocity_x", "node_velocity_y"})
-      grid << "    <Attribute Name=\"" << field << "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+    for (const GridSnapshotField& field : grid_snapshot_fields)
+      grid << "    <Attribute Name=\"" << field.name << "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
            << "     <DataItem Dimensions=\"" << grid_nodes_y_ << " " << grid_nodes_x_
            << "\" NumberType=\"Float\" Precision=\"" << precision << "\" Format=\"HDF\">" << r.file << ":/grid/"
-           << field << "</DataItem>\n"
+           << field.name << "</DataItem>\n"
            << "    </Attribute>\n";
     grid << "   </Grid>\n";
   }
   const char* footer = "  </Grid>\n </Domain>\n</Xdmf>\n";
-  particles << footer;
+  particles_xdmf << footer;
   grid << footer;
-  write_file_atomically(particles_xdmf_path(), particles.str());
+  write_file_atomically(particles_xdmf_path(), particles_xdmf.str());
   write_file_atomically(grid_xdmf_path(), grid.str());
 }
 #endif

@@ -40,8 +40,9 @@ class SnapshotWriter {
   void resume(int num_written);
 
   // Writes snapshot `index` and refreshes the XDMF time series; returns the HDF5 path. The grid
-  // fields are the particles' mass and momentum projected where the particles are now.
-  std::string write(int index, long step, double time, Solver& solver, const ConservationTotals& totals);
+  // fields are the particles' mass and momentum projected where the particles are now
+  // (Solver::grid_projection); nothing of the solver's state changes.
+  std::string write(int index, long step, double time, const Solver& solver, const ConservationTotals& totals);
 
   std::string particles_xdmf_path() const;
   std::string grid_xdmf_path() const;
@@ -52,7 +53,8 @@ class SnapshotWriter {
     double time;
     long num_particles;
   };
-  void write_xdmf() const;
+  // The XDMF of the records so far; `particles` tells the particle fields' types.
+  void write_xdmf(const ParticleState& particles) const;
   std::string file_name(int index) const;
 
   std::string directory_;

@@ -104,9 +104,17 @@ void ParallelContext::barrier() const {
 }
 
 int SlabDecomposition::owner_of_cell(index_t global_cell) const {
-  // The last slab whose first cell is <= global_cell.
-  const auto it = std::upper_bound(cell_begin.begin() + 1, cell_begin.end() - 1, global_cell);
-  return static_cast<int>(it - (cell_begin.begin() + 1));
+  return slab_owning_cell(cell_begin.data(), num_ranks(), global_cell);
+}
+
+SlabDecomposition::DeviceOwners SlabDecomposition::device_owners() const {
+  DeviceOwners owners;
+  owners.cell_begin = IndexView("slab_cell_begin", cell_begin.size());
+  auto host = Kokkos::create_mirror_view(owners.cell_begin);
+  for (size_t r = 0; r < cell_begin.size(); ++r) host(r) = cell_begin[r];
+  Kokkos::deep_copy(owners.cell_begin, host);
+  owners.num_ranks = num_ranks();
+  return owners;
 }
 
 SlabDecomposition SlabDecomposition::even(const CaseConfig& config, int num_ranks) {

@@ -64,6 +64,19 @@ class ParallelContext {
 #endif
 };
 
+// The rank whose slab holds global cell `cell`, given the first cell of every slab (cell_begin[r],
+// num_ranks + 1 entries): the last slab whose first cell is <= cell, by bisection. The host
+// (SlabDecomposition::owner_of_cell) and the kernels (migration) call this one function.
+KOKKOS_INLINE_FUNCTION int slab_owning_cell(const index_t* cell_begin, int num_ranks, index_t cell) {
+  int lo = 0, hi = num_ranks;
+  while (hi - lo > 1) {
+    const int mid = (lo + hi) / 2;
+    if (cell_begin[mid] <= cell) lo = mid;
+    else hi = mid;
+  }
+  return lo;
+}
+
 // The slabs: rank r owns global cells [cell_begin[r], cell_begin[r + 1]) along `axis` (0: x,
 // 1: y) and every cell across it.
 struct SlabDecomposition {
@@ -79,6 +92,15 @@ struct SlabDecomposition {
   index_t begin(int rank) const { return cell_begin[rank]; }
   index_t end(int rank) const { return cell_begin[rank + 1]; }
   int owner_of_cell(index_t global_cell) const;
+  // The slab starts in device memory, for owner_of_cell in kernels (particle migration).
+  struct DeviceOwners {
+    IndexView cell_begin;
+    int num_ranks = 1;
+    KOKKOS_INLINE_FUNCTION int owner_of_cell(index_t global_cell) const {
+      return slab_owning_cell(cell_begin.data(), num_ranks, global_cell);
+    }
+  };
+  DeviceOwners device_owners() const;
 
   // Equal slabs (the first ones one cell wider when the cells do not divide evenly). Throws
   // ConfigError, naming `config.source`, when the ranks are too many for the grid.

@@ -8,43 +8,21 @@ namespace {
 
 using HostIndexView = Kokkos::View<index_t*, Kokkos::HostSpace>;
 
-// The particle's global cell along the decomposition axis, computed from the slab it was in with
-// the same arithmetic as GridGeometry::cell_of, clamped to the domain.
-struct GlobalCellAlongAxis {
-  GridGeometry geometry;
-  int axis;
-  index_t node_offset;  // global index of local node 0 along the axis
-  index_t global_cells;
-  KOKKOS_INLINE_FUNCTION index_t operator()(real_t x, real_t y) const {
-    const real_t local = axis == 0 ? GridGeometry::floor_div(x - geometry.origin_x, geometry.spacing_x)
-                                   : GridGeometry::floor_div(y - geometry.origin_y, geometry.spacing_y);
-    const index_t cell = static_cast<index_t>(local) + node_offset;
-    return cell < 0 ? 0 : (cell >= global_cells ? global_cells - 1 : cell);
-  }
-};
-
+#ifdef MPMFLOW_HAVE_MPI
+// The rank each particle belongs to: the owner (SlabDecomposition::owner_of_cell, the same
+// function on the device) of its global cell along the decomposition axis, which the slab it was
+// last in computes from its position.
 void find_destinations(const ParticleState& pt, const GridSlab& slab, const SlabDecomposition& d,
                        const IndexView& destination) {
   const int axis = d.axis;
-  const GlobalCellAlongAxis global_cell{slab.geometry, axis, axis == 0 ? slab.node_offset_x : slab.node_offset_y,
-                                        axis == 0 ? slab.global_cells_x : slab.global_cells_y};
-  const int ranks = d.num_ranks();
-  Kokkos::View<index_t*, Kokkos::HostSpace> begin_host("slab_begin", ranks + 1);
-  for (int r = 0; r <= ranks; ++r) begin_host(r) = d.cell_begin[r];
-  const IndexView begin = Kokkos::create_mirror_view_and_copy(MemorySpace(), begin_host);
+  const SlabDecomposition::DeviceOwners owners = d.device_owners();
   const RealView x = pt.position_x, y = pt.position_y;
   Kokkos::parallel_for(
       "migration_destination", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
-        const index_t cell = global_cell(x(p), y(p));
-        int lo = 0, hi = ranks;  // the last slab whose first cell is <= cell
-        while (hi - lo > 1) {
-          const int mid = (lo + hi) / 2;
-          if (begin(mid) <= cell) lo = mid;
-          else hi = mid;
-        }
-        destination(p) = lo;
+        destination(p) = owners.owner_of_cell(slab.global_cell_along(axis, x(p), y(p)));
       });
 }
+#endif
 
 // Indices p in [first, last) with keep(p) true, in increasing order.
 template <class Predicate>
@@ -77,6 +55,37 @@ int for_each_migrated_field(const ParticleState& pt, const RealField& real, cons
     else if constexpr (std::is_same<View, ParticleIdView>::value) id(field);
   });
   return column;
+}
+
+// The per-field kernels of a migration, as named functions: nvcc does not allow a device lambda
+// inside the generic lambdas that visit the particle fields.
+
+// buffer(s * width + column) = field(order(s)) for s in [0, count).
+template <class FieldView, class BufferView>
+void pack_field(const FieldView& field, const IndexView& order, index_t count, const BufferView& buffer, int width,
+                int column) {
+  Kokkos::parallel_for(
+      "migration_pack", Kokkos::RangePolicy<ExecutionSpace>(0, count), KOKKOS_LAMBDA(const index_t s) {
+        buffer(static_cast<size_t>(s) * width + column) = field(order(s));
+      });
+}
+
+// field(first + s) = buffer(s * width + column) for s in [0, count).
+template <class FieldView, class BufferView>
+void unpack_field(const FieldView& field, index_t first, index_t count, const BufferView& buffer, int width,
+                  int column) {
+  Kokkos::parallel_for(
+      "migration_unpack", Kokkos::RangePolicy<ExecutionSpace>(0, count), KOKKOS_LAMBDA(const index_t s) {
+        field(first + s) = buffer(static_cast<size_t>(s) * width + column);
+      });
+}
+
+// field(holes(k)) = field(fillers(k)) for k in [0, count).
+template <class FieldView>
+void fill_holes(const FieldView& field, const IndexView& holes, const IndexView& fillers, index_t count) {
+  Kokkos::parallel_for(
+      "migration_fill_holes", Kokkos::RangePolicy<ExecutionSpace>(0, count),
+      KOKKOS_LAMBDA(const index_t k) { field(holes(k)) = field(fillers(k)); });
 }
 
 }  // namespace
@@ -113,17 +122,8 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   RealView send_reals("migration_send_reals", static_cast<size_t>(num_leaving) * F);
   ParticleIdView send_ids("migration_send_ids", num_leaving);
   for_each_migrated_field(
-      pt,
-      [&](const RealView& field, const int column) {
-        Kokkos::parallel_for(
-            "migration_pack", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving),
-            KOKKOS_LAMBDA(const index_t s) { send_reals(static_cast<size_t>(s) * F + column) = field(send_order(s)); });
-      },
-      [&](const ParticleIdView& field) {
-        Kokkos::parallel_for(
-            "migration_pack_id", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving),
-            KOKKOS_LAMBDA(const index_t s) { send_ids(s) = field(send_order(s)); });
-      });
+      pt, [&](const RealView& field, const int column) { pack_field(field, send_order, num_leaving, send_reals, F, column); },
+      [&](const ParticleIdView& field) { pack_field(field, send_order, num_leaving, send_ids, 1, 0); });
 
   // Counts, then data.
   std::vector<int> receive_counts(ranks, 0), receive_offsets(ranks + 1, 0);
@@ -170,11 +170,7 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const IndexView fillers = select_indices(
       "migration_fillers", staying, n, KOKKOS_LAMBDA(const index_t p) { return destination(p) == rank; });
   const index_t num_holes = static_cast<index_t>(fillers.extent(0));  // = leaving particles below `staying`
-  pt.for_each_field([&](const auto& field) {
-    Kokkos::parallel_for(
-        "migration_fill_holes", Kokkos::RangePolicy<ExecutionSpace>(0, num_holes),
-        KOKKOS_LAMBDA(const index_t k) { field(leaving(k)) = field(fillers(k)); });
-  });
+  pt.for_each_field([&](const auto& field) { fill_holes(field, leaving, fillers, num_holes); });
 
   // Append the arrivals.
   const index_t new_count = staying + num_arriving;
@@ -183,15 +179,9 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   for_each_migrated_field(
       pt,
       [&](const RealView& field, const int column) {
-        Kokkos::parallel_for(
-            "migration_unpack", Kokkos::RangePolicy<ExecutionSpace>(0, num_arriving),
-            KOKKOS_LAMBDA(const index_t s) { field(staying + s) = receive_reals(static_cast<size_t>(s) * F + column); });
+        unpack_field(field, staying, num_arriving, receive_reals, F, column);
       },
-      [&](const ParticleIdView& field) {
-        Kokkos::parallel_for(
-            "migration_unpack_id", Kokkos::RangePolicy<ExecutionSpace>(0, num_arriving),
-            KOKKOS_LAMBDA(const index_t s) { field(staying + s) = receive_ids(s); });
-      });
+      [&](const ParticleIdView& field) { unpack_field(field, staying, num_arriving, receive_ids, 1, 0); });
   return num_leaving;
 #else
   (void)pt;

@@ -5,6 +5,8 @@
 #include "counter_random.hpp"
 #include "gas_physics.hpp"
 #include "geometry.hpp"
+#include "kernels/particle_sort.hpp"
+#include "kernels/reductions.hpp"
 
 namespace mpmflow {
 
@@ -51,8 +53,9 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
   // points inside obstacles are dropped. A cell cut by an obstacle so keeps its fluid share.
   std::vector<real_t> xs, ys;
   std::vector<particle_id_t> ids;
-  for (index_t cj = slab.owned_cell_begin_y; cj < slab.owned_cell_end_y; ++cj)
-    for (index_t ci = slab.owned_cell_begin_x; ci < slab.owned_cell_end_x; ++ci)
+  const IndexRange2D owned = slab.index_space(Ownership::owned, Entity::cell, Indexing::global);
+  for (index_t cj = owned.begin_y; cj < owned.end_y; ++cj)
+    for (index_t ci = owned.begin_x; ci < owned.end_x; ++ci)
       for (int b = 0; b < ppy; ++b)
         for (int a = 0; a < ppx; ++a) {
           // Global and cell-major, so ids do not depend on how the grid is split.
@@ -118,6 +121,36 @@ void update_cell_map(const GridGeometry& geometry, const ParticleState& particle
   Kokkos::parallel_for(
       "update_cell_map", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
       KOKKOS_LAMBDA(const index_t p) { cell(p) = geometry.cell_of(x(p), y(p)); });
+}
+
+void reorder_particles_by_cell(const ParticleState& particles, index_t num_cells) {
+  CellOrder order;
+  order.build(particles.cell, particles.count, num_cells);
+  particles.for_each_field([&](const auto& field) { order.apply(field); });
+}
+
+real_t max_signal_speed(const ParticleState& particles, real_t gamma) {
+  const auto vx = particles.velocity_x, vy = particles.velocity_y, p = particles.pressure, rho = particles.density;
+  return max_over_particles(
+      "max_signal_speed", particles.count, KOKKOS_LAMBDA(const index_t k) {
+        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k)));
+        return is_valid_gas_state(rho(k), p(k), speed) ? speed : largest_real;  // no valid speed is this large
+      });
+}
+
+index_t first_invalid_particle(const ParticleState& particles, real_t gamma) {
+  const auto x = particles.position_x, y = particles.position_y, vx = particles.velocity_x,
+             vy = particles.velocity_y, p = particles.pressure, rho = particles.density;
+  index_t first = particles.count;
+  Kokkos::parallel_reduce(
+      "find_invalid_particle", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
+      KOKKOS_LAMBDA(const index_t k, index_t& smallest) {
+        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k)));
+        const bool valid = is_valid_gas_state(rho(k), p(k), speed) && x(k) == x(k) && y(k) == y(k);
+        if (!valid && k < smallest) smallest = k;
+      },
+      Kokkos::Min<index_t>(first));
+  return first < particles.count ? first : particles.count;  // the reduction's identity when none is bad
 }
 
 }  // namespace mpmflow

@@ -61,7 +61,17 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
 // The initial gas state at (x, y): the background, overridden by the last region containing it.
 GasState initial_state_at(const InitialStateConfig& initial, real_t x, real_t y);
 
-// Recomputes every particle's cell from its position (Algorithm 1, step x).
+// Recomputes every particle's cell from its position.
 void update_cell_map(const GridGeometry& geometry, const ParticleState& particles);
+
+// Algorithm 1, step 12: the particle arrays grouped by cell, in index order within a cell (the
+// same order on any thread count), so that particles close in space are close in memory.
+void reorder_particles_by_cell(const ParticleState& particles, index_t num_cells);
+
+// The fastest signal |v| + c over the particles, for the time step; largest_real when a particle
+// has an invalid gas state (is_valid_gas_state), and 0 without particles.
+real_t max_signal_speed(const ParticleState& particles, real_t gamma);
+// The lowest index of a particle with an invalid gas state or position; particles.count if none.
+index_t first_invalid_particle(const ParticleState& particles, real_t gamma);
 
 }  // namespace mpmflow

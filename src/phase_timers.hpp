@@ -1,13 +1,46 @@
 #pragma once
-// Wall-clock time per named phase, each phase also a Kokkos profiling region so the standard
-// Kokkos tools (space-time stack, kernel timer, nsys/rocprof connectors) see the same names.
-#include <map>
-#include <string>
+// The phases of a run, and wall-clock time per phase. Each phase is also a Kokkos profiling region
+// under the same name, so the standard Kokkos tools (space-time stack, kernel timer, nsys/rocprof
+// connectors) see the names the run's phase table prints.
+#include <array>
 #include <vector>
 
 #include <Kokkos_Core.hpp>
 
 namespace mpmflow {
+
+// Every phase of a run, in the order of a step (Algorithm 1); `phase_names` below is the one list
+// of their names, which the solver, the phase table, the tests and the benchmarks all use.
+enum class Phase : int {
+  time_step,                  // 13. CFL condition (and the check of the particle states)
+  grid_reset,                 // 2.
+  p2g_mass_momentum_force,    // 3.
+  halo_exchange,              // sums on the nodes shared with neighbouring slabs
+  boundary_conditions,        // 4. and 9.
+  grid_momentum_update,       // 5.
+  g2p_p2g_velocity_momentum,  // 6.-8. fused
+  g2p_velocity_acceleration,  // 6.-7. unfused
+  p2g_momentum_remap,         // 8. unfused
+  grid_remap_velocity,        // the remapped node velocity, for 10.
+  g2pd_particle_update,       // 10.
+  particle_move,              // 11.
+  migration,                  // particles to the ranks owning their cells
+  cell_map,                   // each particle's cell
+  reorder,                    // 12.
+  load_balance,               // the slabs moved to even out the particles
+  output,
+  checkpoint,
+  count
+};
+
+constexpr std::array<const char*, static_cast<size_t>(Phase::count)> phase_names = {
+    "time_step",           "grid_reset",           "p2g_mass_momentum_force",   "halo_exchange",
+    "boundary_conditions", "grid_momentum_update", "g2p_p2g_velocity_momentum", "g2p_velocity_acceleration",
+    "p2g_momentum_remap",  "grid_remap_velocity",  "g2pd_particle_update",      "particle_move",
+    "migration",           "cell_map",             "reorder",                   "load_balance",
+    "output",              "checkpoint"};
+
+constexpr const char* phase_name(Phase phase) { return phase_names[static_cast<size_t>(phase)]; }
 
 class PhaseTimers {
  public:
@@ -20,46 +53,45 @@ class PhaseTimers {
   // this phase even on asynchronous back-ends.
   class Scope {
    public:
-    Scope(PhaseTimers& timers, const char* name) : timers_(timers), name_(name) {
-      Kokkos::Profiling::pushRegion(name_);
+    Scope(PhaseTimers& timers, Phase phase) : timers_(timers), phase_(phase) {
+      Kokkos::Profiling::pushRegion(phase_name(phase_));
     }
     ~Scope() {
       Kokkos::fence();
       Kokkos::Profiling::popRegion();
-      timers_.add(name_, timer_.seconds());
+      timers_.add(phase_, timer_.seconds());
     }
     Scope(const Scope&) = delete;
     Scope& operator=(const Scope&) = delete;
 
    private:
     PhaseTimers& timers_;
-    const char* name_;
+    Phase phase_;
     Kokkos::Timer timer_;
   };
 
-  Scope scope(const char* name) { return Scope(*this, name); }
+  Scope scope(Phase phase) { return Scope(*this, phase); }
 
-  void add(const std::string& name, double seconds) {
-    auto it = entries_.find(name);
-    if (it == entries_.end()) {
-      order_.push_back(name);
-      it = entries_.emplace(name, Entry{}).first;
-    }
-    it->second.seconds += seconds;
-    it->second.calls += 1;
+  void add(Phase phase, double seconds) {
+    Entry& e = entries_[static_cast<size_t>(phase)];
+    if (e.calls == 0) order_.push_back(phase);
+    e.seconds += seconds;
+    e.calls += 1;
   }
 
-  const std::vector<std::string>& names() const { return order_; }
-  const Entry& entry(const std::string& name) const { return entries_.at(name); }
+  // The phases timed so far, in first-seen order (the order of the step).
+  const std::vector<Phase>& phases() const { return order_; }
+  bool seen(Phase phase) const { return entry(phase).calls > 0; }
+  const Entry& entry(Phase phase) const { return entries_[static_cast<size_t>(phase)]; }
   double total_seconds() const {
     double total = 0;
-    for (const auto& kv : entries_) total += kv.second.seconds;
+    for (const Entry& e : entries_) total += e.seconds;
     return total;
   }
 
  private:
-  std::map<std::string, Entry> entries_;
-  std::vector<std::string> order_;  // first-seen order, which is the order of the step
+  std::array<Entry, static_cast<size_t>(Phase::count)> entries_{};
+  std::vector<Phase> order_;
 };
 
 }  // namespace mpmflow

@@ -7,6 +7,7 @@
 #include <ostream>
 #include <sstream>
 #include <streambuf>
+#include <vector>
 
 #include "checkpoint.hpp"
 #include "output.hpp"
@@ -33,14 +34,14 @@ void print_totals(std::ostream& log, const char* label, const ConservationTotals
       << (t.total_energy() - t0.total_energy()) / t0.total_energy() << "\n";
 }
 
-void print_timer_table(std::ostream& log, PhaseTimers& timers, long steps) {
+void print_timer_table(std::ostream& log, const PhaseTimers& timers, long steps) {
   const double total = timers.total_seconds();
   log << "\nTime per phase\n"
       << "  " << std::left << std::setw(28) << "phase" << std::right << std::setw(11) << "total [s]" << std::setw(8)
       << "%" << std::setw(10) << "calls" << std::setw(14) << "per step [ms]" << "\n";
-  for (const auto& name : timers.names()) {
-    const auto& e = timers.entry(name);
-    log << "  " << std::left << std::setw(28) << name << std::right << std::fixed << std::setprecision(3)
+  for (const Phase phase : timers.phases()) {
+    const auto& e = timers.entry(phase);
+    log << "  " << std::left << std::setw(28) << phase_name(phase) << std::right << std::fixed << std::setprecision(3)
         << std::setw(11) << e.seconds << std::setprecision(1) << std::setw(8) << 100 * e.seconds / total
         << std::setw(10) << e.calls << std::setprecision(3) << std::setw(14)
         << (steps > 0 ? 1000 * e.seconds / steps : 0.0) << "\n";
@@ -85,15 +86,12 @@ namespace {
 
 // Conservation totals over all ranks.
 ConservationTotals global_totals(DiagnosticsCalculator& diagnostics, const Solver& solver) {
-  const ConservationTotals local = diagnostics.compute(solver.particles());
-  double values[5] = {local.mass, local.momentum_x, local.momentum_y, local.kinetic_energy, local.internal_energy};
-  solver.context().sum_in_place(values, 5);
-  ConservationTotals totals;
-  totals.mass = values[0];
-  totals.momentum_x = values[1];
-  totals.momentum_y = values[2];
-  totals.kinetic_energy = values[3];
-  totals.internal_energy = values[4];
+  ConservationTotals totals = diagnostics.compute(solver.particles());
+  std::vector<double> values;
+  totals.for_each_total([&](const char*, double value) { values.push_back(value); });
+  solver.context().sum_in_place(values.data(), static_cast<int>(values.size()));
+  size_t k = 0;
+  totals.for_each_total([&](const char*, double& value) { value = values[k++]; });
   return totals;
 }
 
@@ -185,7 +183,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   auto write_output = [&](double t, const ConservationTotals& totals) {
 #ifdef MPMFLOW_HAVE_HDF5
     if (!writer) return;
-    auto scope = solver.timers().scope("output");
+    auto scope = solver.timers().scope(Phase::output);
     const std::string path = writer->write(next_snapshot, solver.step_count(), t, solver, totals);
     if (diagnostics_log) diagnostics_log->append(solver.step_count(), t, totals);
     log << "  output " << next_snapshot << " at t = " << t << ": " << path << std::endl;
@@ -199,7 +197,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   auto write_checkpoint_now = [&]() {
 #ifdef MPMFLOW_HAVE_HDF5
     if (checkpoint_interval <= 0 || last_checkpoint_step == solver.step_count()) return;
-    auto scope = solver.timers().scope("checkpoint");
+    auto scope = solver.timers().scope(Phase::checkpoint);
     const RunClock clock{t, solver.step_count(), next_snapshot, summary.initial_totals, solver.node_mass_threshold()};
     const std::string path =
         write_checkpoint(config.output.directory, config.name, solver, clock, config.output.checkpoints_kept);

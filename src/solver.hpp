@@ -1,18 +1,13 @@
 #pragma once
-// One explicit MPM step (the paper's Algorithm 1) over a grid slab and its particles.
+// The driver of the MPM steps over one slab and its particles: the time step size (Algorithm 1,
+// step 13), the step itself (mpm_step.hpp), rebalancing the slabs between steps, reporting an
+// invalid particle state, and what a restart needs to continue bitwise.
 #include <memory>
 #include <stdexcept>
 #include <vector>
 
-#include "boundary_conditions.hpp"
 #include "case_config.hpp"
-#include "geometry.hpp"
-#include "grid.hpp"
-#include "halo_exchange.hpp"
-#include "parallel.hpp"
-#include "particle_migration.hpp"
-#include "particles.hpp"
-#include "phase_timers.hpp"
+#include "mpm_step.hpp"
 
 namespace mpmflow {
 
@@ -38,7 +33,7 @@ class Solver {
   // A single process owning `slab` (the whole grid, or a part of it in tests).
   Solver(const CaseConfig& config, const GridSlab& slab, ParticleState particles);
   // Rank `context.rank()` of a distributed run: the slab `decomposition` gives it, with its
-  // particles (any particle outside the slab is sent to its owner at the first step).
+  // particles (any particle outside the slab is sent to its owner at once).
   Solver(const CaseConfig& config, const ParallelContext& context, const SlabDecomposition& decomposition,
          ParticleState particles);
   ~Solver();
@@ -52,42 +47,48 @@ class Solver {
   // The check alone (before an output, so that a bad state is never written as a good one).
   void check_state() { (void)stable_time_step(); }
 
-  // Advances particles and grid by dt: steps 2-12 of Algorithm 1.
+  // Advances particles and grid by dt (Algorithm 1, steps 2-12), then rebalances the slabs when
+  // decomposition/balance_interval says so.
   void advance(real_t dt);
-
-  // Total particles over all ranks.
-  long long global_particle_count() const { return context_.sum(particles_.count); }
-  const ParallelContext& context() const { return context_; }
-  const SlabDecomposition& decomposition() const { return decomposition_; }
-  // Rebalances the slabs now if that evens out the particle counts; returns whether it did.
-  // Collective. advance() calls it every decomposition/balance_interval steps.
-  bool balance_load();
-  // The rebalancings so far.
-  const std::vector<BalanceReport>& balance_reports() const { return balance_reports_; }
-  // Sets the step counter (restart from a checkpoint).
-  void set_step_count(long steps) { step_count_ = steps; }
 
   // One stable step from time t, shortened so as not to pass `target`; returns the new time
   // (exactly `target` when it is reached, so outputs land on their times).
   double step_towards(double t, double target);
 
-  // Maps mass and momentum of the particles, where they are now, onto the grid (the first P2G of
-  // a step), so that grid output describes the same state as the particles. Steps begin with a
-  // grid reset, so this never affects the solution.
-  void project_to_grid();
+  // Rebalances the slabs now if that evens out the particle counts; returns whether it did.
+  // Collective.
+  bool balance_load();
+  // The rebalancings so far.
+  const std::vector<BalanceReport>& balance_reports() const { return balance_reports_; }
 
-  long step_count() const { return step_count_; }
+  // The particles' mass and momentum, where they are now, on this slab's nodes (columns
+  // GridFields::mass, momentum_x, momentum_y), summed over the slabs: what grid output shows.
+  // Collective. Computed apart: the step's grid fields are left as they are.
+  NodeFieldsView grid_projection() const;
+
+  // Total particles over all ranks.
+  long long global_particle_count() const { return context().sum(particles_.count); }
+  const ParallelContext& context() const { return slab_->context(); }
+  const SlabDecomposition& decomposition() const { return slab_->decomposition(); }
+  const GridSlab& slab() const { return slab_->slab(); }
+  const GridFields& grid_fields() const { return slab_->fields(); }
+  const ObstacleGrid& obstacle_grid() const { return slab_->obstacles(); }
   const ParticleState& particles() const { return particles_; }
   ParticleState& particles() { return particles_; }
-  const GridFields& grid_fields() const { return grid_fields_; }
-  const GridSlab& slab() const { return slab_; }
-  const ObstacleGrid& obstacle_grid() const { return obstacle_grid_; }
   PhaseTimers& timers() { return timers_; }
-  // The P2G ScatterView mode in use, after resolving "automatic" for this execution space.
-  P2GStrategy p2g_strategy() const;
+  const PhaseTimers& timers() const { return timers_; }
+  // The P2G accumulation in use, after resolving "automatic" for this execution space.
+  P2GStrategy p2g_strategy() const { return transfers_->strategy(); }
+
+  // Restart state: the steps taken, and the node-mass threshold (fixed from the particles at
+  // t = 0; recycling changes particle masses, so recomputing it on restart would change the run).
+  long step_count() const { return step_count_; }
+  void set_step_count(long steps) { step_count_ = steps; }
+  real_t node_mass_threshold() const { return settings_.node_mass_threshold; }
+  void set_node_mass_threshold(real_t threshold) { settings_.node_mass_threshold = threshold; }
 
   // Bytes of device memory the solver holds, by owner: particle fields, grid fields and the P2G
-  // ScatterViews' duplicated copies (zero for atomic ScatterViews, which write in place).
+  // scratch (duplicated ScatterView copies, or the cell order of the sorted strategy).
   struct MemoryUse {
     size_t particle_bytes = 0;
     size_t grid_bytes = 0;
@@ -96,49 +97,23 @@ class Solver {
   };
   MemoryUse memory_use() const;
 
-  // Nodal velocity is momentum / mass where the node carries more than this mass; below it a node
-  // is treated as empty (no velocity, no acceleration), so nearly empty nodes at the edge of the
-  // particle cloud cannot produce huge accelerations.
-  real_t node_mass_threshold() const { return node_mass_threshold_; }
-  // Restores the threshold of the run a checkpoint came from (it is fixed from the particles at
-  // t = 0, and recycling changes particle masses, so recomputing it would change the run).
-  void set_node_mass_threshold(real_t threshold) { node_mass_threshold_ = threshold; }
-
-  // The step itself, specialised on the P2G ScatterView duplication mode and the shape function.
-  // Public so that device lambdas may be defined in its member functions (a CUDA requirement).
-  class Stepper;
-  template <class Accumulation, class Shape>
-  class ScatterStepper;
-
-  // Throws InvalidStateError on every rank, with the first bad particle of the lowest rank that
-  // has one (collective; `local_invalid`: this rank has one). Public for CUDA's device lambdas.
-  [[noreturn]] void report_invalid_particle(bool local_invalid) const;
-  // Throws InvalidStateError describing this rank's first bad particle (which must exist).
-  [[noreturn]] void describe_invalid_particle() const;
-
  private:
-  template <class Accumulation>
-  std::unique_ptr<Stepper> make_stepper() const;
-  // (Re)builds everything that depends on the slab: grid fields, obstacles on the grid, boundary
-  // conditions, halo buffers and the P2G stepper.
-  void build_slab_state();
+  Solver(const CaseConfig& config, std::unique_ptr<SlabState> slab_state, ParticleState particles);
+  // The slab state and the transfers bound to its grid fields, for `decomposition`.
+  void build_slab(const SlabDecomposition& decomposition);
+  // Throws InvalidStateError on every rank, with the first bad particle of the lowest rank that
+  // has one (collective; `local_invalid`: this rank has one).
+  [[noreturn]] void report_invalid_particle(bool local_invalid) const;
 
   CaseConfig config_;
-  ParallelContext context_;
-  SlabDecomposition decomposition_;
-  GridSlab slab_;
+  std::unique_ptr<SlabState> slab_;
   ParticleState particles_;
-  GridFields grid_fields_;
-  PhaseTimers timers_;
-  ObstacleGrid obstacle_grid_;
-  GridBoundaryConditions grid_boundaries_;
-  ParticleBoundaries particle_boundaries_;
-  std::unique_ptr<HaloExchange> halo_;
+  std::unique_ptr<TransferKernels> transfers_;
   ParticleMigration migration_;
+  PhaseTimers timers_;
+  StepSettings settings_;
   std::vector<BalanceReport> balance_reports_;
-  real_t node_mass_threshold_ = 0;
   long step_count_ = 0;
-  std::unique_ptr<Stepper> stepper_;
 };
 
 }  // namespace mpmflow

@@ -112,6 +112,91 @@ TEST(Decomposition, SlabAlongYHasGhostRowsAndAllColumns) {
   EXPECT_EQ(g.cell_of(1.05, 0.39, /*include_ghosts=*/true) / g.cells_x(), 0);
 }
 
+// Index spaces of the slabs of a 3-slab split along `axis` of a 20 x 10 cell grid.
+std::vector<GridSlab> three_slabs(int axis) {
+  DomainConfig domain;
+  domain.x_min = 0, domain.x_max = 2, domain.y_min = 0, domain.y_max = 1;
+  domain.cells_x = 20, domain.cells_y = 10;
+  CaseConfig config = config_with_cells(20, 10, axis);
+  const SlabDecomposition d = SlabDecomposition::even(config, 3);
+  std::vector<GridSlab> slabs;
+  for (int r = 0; r < 3; ++r) slabs.push_back(make_grid_slab(domain, axis, d.begin(r), d.end(r)));
+  return slabs;
+}
+
+TEST(SlabIndexSpaces, OwnedNodesAndCellsCoverTheDomainOnceAndGhostedRangesHoldThem) {
+  for (int axis : {0, 1}) {
+    std::vector<int> node_owners(21 * 11, 0), cell_owners(20 * 10, 0);
+    for (const GridSlab& slab : three_slabs(axis)) {
+      const IndexRange2D nodes = slab.index_space(Ownership::owned, Entity::node, Indexing::global);
+      for (index_t j = nodes.begin_y; j < nodes.end_y; ++j)
+        for (index_t i = nodes.begin_x; i < nodes.end_x; ++i) ++node_owners[i + 21 * j];
+      const IndexRange2D cells = slab.index_space(Ownership::owned, Entity::cell, Indexing::global);
+      for (index_t j = cells.begin_y; j < cells.end_y; ++j)
+        for (index_t i = cells.begin_x; i < cells.end_x; ++i) ++cell_owners[i + 20 * j];
+      // Local and global indices differ by the node offset; the ghosted range is the local grid,
+      // one line wider than the owned one on each side.
+      const IndexRange2D local = slab.index_space(Ownership::owned, Entity::cell, Indexing::local);
+      EXPECT_EQ(local.begin_x + slab.node_offset_x, cells.begin_x);
+      EXPECT_EQ(local.begin_y + slab.node_offset_y, cells.begin_y);
+      const IndexRange2D ghosted = slab.index_space(Ownership::ghosted, Entity::node, Indexing::local);
+      EXPECT_EQ(ghosted, (IndexRange2D{0, slab.geometry.nodes_x, 0, slab.geometry.nodes_y}));
+      const IndexRange2D ghosted_cells = slab.index_space(Ownership::ghosted, Entity::cell, Indexing::global);
+      EXPECT_EQ(ghosted_cells.begin_x, cells.begin_x - 1);
+      EXPECT_EQ(ghosted_cells.end_y, cells.end_y + 1);
+    }
+    for (int owners : node_owners) EXPECT_EQ(owners, 1) << "axis " << axis;
+    for (int owners : cell_owners) EXPECT_EQ(owners, 1) << "axis " << axis;
+  }
+}
+
+TEST(SlabIndexSpaces, NeighboursShareTheThreeNodeLinesAroundTheirFace) {
+  for (int axis : {0, 1}) {
+    const std::vector<GridSlab> slabs = three_slabs(axis);
+    EXPECT_TRUE(slabs[0].shared_node_space(-1).empty());
+    EXPECT_TRUE(slabs[2].shared_node_space(+1).empty());
+    for (int r = 0; r + 1 < 3; ++r) {
+      const GridSlab &lower = slabs[r], &upper = slabs[r + 1];
+      const IndexRange2D a = lower.shared_node_space(+1), b = upper.shared_node_space(-1);
+      ASSERT_EQ(a.size(), b.size());
+      EXPECT_EQ(a.end(axis) - a.begin(axis), GridSlab::shared_lines);
+      // The same global lines, around the face at the upper slab's first owned cell.
+      EXPECT_EQ(a.begin(axis) + lower.node_offset(axis), b.begin(axis) + upper.node_offset(axis));
+      const index_t face = upper.index_space(Ownership::owned, Entity::cell, Indexing::global).begin(axis);
+      EXPECT_EQ(b.begin(axis) + upper.node_offset(axis), face - 1);
+      EXPECT_EQ(a.extent_x() * a.extent_y(), GridSlab::shared_lines * (axis == 0 ? 13 : 23));
+    }
+  }
+}
+
+TEST(SlabIndexSpaces, BoundaryLinesAndDomainNodes) {
+  const std::vector<GridSlab> slabs = three_slabs(0);
+  // The left side and the line beyond it are on the first slab only.
+  EXPECT_EQ(slabs[0].boundary_node_line(left_side, 0), (IndexRange2D{1, 2, 0, 13}));
+  EXPECT_EQ(slabs[0].boundary_node_line(left_side, 1), (IndexRange2D{0, 1, 0, 13}));
+  EXPECT_TRUE(slabs[1].boundary_node_line(left_side, 0).empty());
+  EXPECT_TRUE(slabs[0].boundary_node_line(right_side, 0).empty());
+  const GridSlab& last = slabs[2];
+  const index_t right = last.local_node_x(20);
+  EXPECT_EQ(last.boundary_node_line(right_side, 0), (IndexRange2D{right, right + 1, 0, 13}));
+  // Bottom and top run along every slab.
+  EXPECT_EQ(slabs[1].boundary_node_line(top_side, 1), (IndexRange2D{0, slabs[1].geometry.nodes_x, 12, 13}));
+  // The domain's nodes held by the middle slab: all of its nodes along x, none of the ghost rows.
+  EXPECT_EQ(slabs[1].domain_node_space(), (IndexRange2D{0, slabs[1].geometry.nodes_x, 1, 12}));
+  EXPECT_EQ(slabs[0].domain_node_space().begin_x, 1);
+}
+
+TEST(SlabIndexSpaces, GlobalCellOfAPointAnywhereInTheDomain) {
+  const std::vector<GridSlab> slabs = three_slabs(0);
+  // From any slab, the same global cell: 0.1 cell widths past x = 1.3 is cell 13; clamped at the edges.
+  for (const GridSlab& slab : slabs) {
+    EXPECT_EQ(slab.global_cell_along(0, 1.31, 0.5), 13);
+    EXPECT_EQ(slab.global_cell_along(1, 1.31, 0.55), 5);
+    EXPECT_EQ(slab.global_cell_along(0, -0.5, 0.5), 0);
+    EXPECT_EQ(slab.global_cell_along(0, 2.0, 0.5), 19);
+  }
+}
+
 TEST(Decomposition, SingleProcessContextWithoutMpiRun) {
   const ParallelContext context;  // MPI is not initialised in the unit tests
   EXPECT_EQ(context.size(), 1);

@@ -1,0 +1,85 @@
+#include "mpm_step.hpp"
+
+#include "grid_phases.hpp"
+
+namespace mpmflow {
+
+// Algorithm 1, numbered as the paper numbers its steps. Each phase is timed and is a profiling
+// region (phase_timers.hpp); the kernels are in transfers.cpp and kernels/, the node-by-node
+// phases in grid_phases.cpp, the boundary conditions in boundary_conditions.cpp.
+void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long step) {
+  PhaseTimers& timers = s.timers;
+  const SlabState& slab = s.slab;
+  const GridFields& grid = s.slab.fields();
+  const ParticleState& particles = s.particles;
+  TransferKernels& transfers = s.transfers;
+  const real_t mass_threshold = settings.node_mass_threshold;
+
+  {  // 2. grid reset
+    auto t = timers.scope(Phase::grid_reset);
+    reset_grid(grid);
+  }
+  {  // 3. m = P2G(M), mv = P2G(M V), f = P2GD((P + Q) M / rho)
+    auto t = timers.scope(Phase::p2g_mass_momentum_force);
+    transfers.p2g_mass_momentum_force(particles);
+  }
+  {  // ... summed over the slabs sharing a node
+    auto t = timers.scope(Phase::halo_exchange);
+    slab.halo().sum_shared_nodes(grid.state, 0, GridFields::num_state_columns);
+  }
+  {  // 4. boundary conditions on mv and f; obstacles (eqs. 21-22)
+    auto t = timers.scope(Phase::boundary_conditions);
+    slab.grid_boundaries().apply_to_momentum_and_force(grid.state);
+  }
+  {  // 5. (mv)' = mv + dt f; V-bar = (mv)' / m and A = f / m on the nodes
+    auto t = timers.scope(Phase::grid_momentum_update);
+    update_grid_momentum(grid, dt, mass_threshold);
+  }
+  if (settings.fused_kernels) {  // 6.-8. in one pass over the particles
+    auto t = timers.scope(Phase::g2p_p2g_velocity_momentum);
+    transfers.g2p_p2g_velocity_momentum(particles, dt);
+  } else {
+    {  // 6. V-bar = G2P(mv / m), A = G2P(f / m); 7. V' = V + dt A
+      auto t = timers.scope(Phase::g2p_velocity_acceleration);
+      transfers.g2p_velocity_acceleration(particles, dt);
+    }
+    {  // 8. mv = P2G(M V')
+      auto t = timers.scope(Phase::p2g_momentum_remap);
+      transfers.p2g_momentum_remap(particles);
+    }
+  }
+  {  // ... summed over the slabs sharing a node
+    auto t = timers.scope(Phase::halo_exchange);
+    slab.halo().sum_shared_nodes(grid.momentum_remap, 0, GridFields::num_remap_columns);
+  }
+  {  // 9. boundary conditions on mv
+    auto t = timers.scope(Phase::boundary_conditions);
+    slab.grid_boundaries().apply_to_momentum(grid.momentum_remap, GridFields::remap_momentum_x, grid.state);
+  }
+  {  // ... and mv / m on the nodes, for step 10
+    auto t = timers.scope(Phase::grid_remap_velocity);
+    compute_remap_velocity(grid, mass_threshold);
+  }
+  {  // 10. grad V = G2PD(mv / m); E', rho', P' (and Q) of the particles
+    auto t = timers.scope(Phase::g2pd_particle_update);
+    transfers.g2pd_particle_update(particles, settings.thermodynamics, dt);
+  }
+  {  // 11. X' = X + dt V-bar; walls, open sides and obstacles
+    auto t = timers.scope(Phase::particle_move);
+    move_particles(slab.particle_boundaries(), particles, dt, step);
+  }
+  {  // particles that left the slab go to the ranks owning their cells
+    auto t = timers.scope(Phase::migration);
+    s.migration.migrate(s.particles, slab.slab(), slab.decomposition(), slab.context());
+  }
+  {  // each particle's cell, which the next step's kernels start from
+    auto t = timers.scope(Phase::cell_map);
+    update_cell_map(slab.geometry(), particles);
+  }
+  if (settings.reorder_interval > 0 && step % settings.reorder_interval == 0) {  // 12. optional reordering
+    auto t = timers.scope(Phase::reorder);
+    reorder_particles_by_cell(particles, slab.geometry().num_cells());
+  }
+}
+
+}  // namespace mpmflow

@@ -1,0 +1,36 @@
+#pragma once
+// One explicit MPM step, the paper's Algorithm 1 (steps 2-12; the driver, Solver, takes the
+// time step size of step 13 and rebalances the slabs between steps).
+#include "particle_migration.hpp"
+#include "particles.hpp"
+#include "phase_timers.hpp"
+#include "slab_state.hpp"
+#include "transfers.hpp"
+
+namespace mpmflow {
+
+// What a step reads and writes; the Solver owns all of it.
+struct StepState {
+  SlabState& slab;
+  ParticleState& particles;
+  TransferKernels& transfers;
+  ParticleMigration& migration;
+  PhaseTimers& timers;
+};
+
+// What a step needs to know besides the state: fixed for a run.
+struct StepSettings {
+  // G2P of velocity and acceleration fused with the momentum remap P2G (numerics/fused_kernels).
+  bool fused_kernels = true;
+  int reorder_interval = 0;  // step 12 on every step divisible by it; 0: never
+  // Nodes with no more mass than this count as empty (no velocity, no acceleration), so that
+  // nearly empty nodes at the edge of the particle cloud cannot produce huge accelerations.
+  real_t node_mass_threshold = 0;
+  ThermodynamicConstants thermodynamics;
+};
+
+// Advances the particles and the grid of one slab by dt. `step` numbers the step being taken
+// (1 for the first): it keys recycling's random numbers and the reordering interval.
+void mpm_step(const StepState& state, const StepSettings& settings, real_t dt, long step);
+
+}  // namespace mpmflow

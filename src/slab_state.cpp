@@ -1,0 +1,36 @@
+#include "slab_state.hpp"
+
+namespace mpmflow {
+namespace {
+
+// The decomposition a lone slab stands for: itself, along its axis.
+SlabDecomposition single_slab(const GridSlab& slab) {
+  SlabDecomposition d;
+  d.axis = slab.axis;
+  d.cell_begin = {0, slab.global_cells(slab.axis)};
+  return d;
+}
+
+}  // namespace
+
+SlabState::SlabState(const CaseConfig& config, const ParallelContext& context,
+                     const SlabDecomposition& decomposition)
+    : SlabState(config, context, decomposition,
+                make_grid_slab(config.domain, decomposition.axis, decomposition.begin(context.rank()),
+                               decomposition.end(context.rank()))) {}
+
+SlabState::SlabState(const CaseConfig& config, const GridSlab& slab)
+    : SlabState(config, ParallelContext::self(), single_slab(slab), slab) {}
+
+SlabState::SlabState(const CaseConfig& config, const ParallelContext& context, const SlabDecomposition& decomposition,
+                     const GridSlab& slab)
+    : context_(context),
+      decomposition_(decomposition),
+      slab_(slab),
+      fields_(slab.geometry),
+      halo_(slab, context, GridFields::num_state_columns),
+      obstacles_(make_obstacle_grid(config.obstacles, slab)),
+      grid_boundaries_(config, slab, obstacles_),
+      particle_boundaries_(config, slab, obstacles_) {}
+
+}  // namespace mpmflow

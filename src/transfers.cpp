@@ -1,0 +1,281 @@
+#include "transfers.hpp"
+
+#include <type_traits>
+
+#include "gas_physics.hpp"
+#include "kernels/particle_sort.hpp"
+#include "kernels/transfer_kernels.hpp"
+
+namespace mpmflow {
+namespace {
+
+// ---- On-the-fly functors of Algorithm 1 (the paper's I, zeta, eta and theta) ------------------
+
+// P2G(I, M), P2G(I, M Vx), P2G(I, M Vy)
+struct MassAndMomentum {
+  static constexpr int num_components = 3;
+  RealView mass, velocity_x, velocity_y;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[3]) const {
+    value[0] = mass(p);
+    value[1] = mass(p) * velocity_x(p);
+    value[2] = mass(p) * velocity_y(p);
+  }
+};
+
+// P2G(I, M V): the momentum remap of step 8.
+struct Momentum {
+  static constexpr int num_components = 2;
+  RealView mass, velocity_x, velocity_y;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[2]) const {
+    value[0] = mass(p) * velocity_x(p);
+    value[1] = mass(p) * velocity_y(p);
+  }
+};
+
+// P2GD(zeta / eta, P, Q, M, rho): the internal force f_i = sum_p (P+Q) (M/rho) grad phi_i (eq. 13).
+struct InternalForce {
+  static constexpr int num_components = 2;
+  RealView pressure, viscosity, mass, density;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&vector)[2][2]) const {
+    const real_t stress_times_volume = (pressure(p) + viscosity(p)) * mass(p) / density(p);
+    vector[0][0] = stress_times_volume;  // zeta: x force component pairs with d/dx
+    vector[0][1] = 0;
+    vector[1][0] = 0;                    // eta: y force component pairs with d/dy
+    vector[1][1] = stress_times_volume;
+  }
+};
+
+// The G2P node functor: N adjacent columns of a View, read as they are (the paper's theta,
+// the division by the node mass, is done once per node on the grid: grid_phases.hpp).
+template <int N>
+struct NodeColumns {
+  static constexpr int num_components = N;
+  NodeFieldsView fields;
+  int first_column;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t node, real_t (&value)[N]) const {
+    for (int c = 0; c < N; ++c) value[c] = fields(node, first_column + c);
+  }
+};
+
+// Sink of step 6-7: keep V-bar for the move, update V with the interpolated acceleration.
+struct StoreGridVelocityAndAccelerate {
+  RealView grid_velocity_x, grid_velocity_y, velocity_x, velocity_y;
+  real_t dt;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4]) const {
+    grid_velocity_x(p) = value[0];
+    grid_velocity_y(p) = value[1];
+    velocity_x(p) += dt * value[2];
+    velocity_y(p) += dt * value[3];
+  }
+};
+
+// Steps 6-8 for one particle, for the fused kernel: the sink above, then the particle's new
+// momentum M V' for the remap P2G.
+struct AccelerateThenCarryMomentum {
+  static constexpr int num_components = 2;
+  StoreGridVelocityAndAccelerate store;
+  RealView mass;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4], real_t (&momentum)[2]) const {
+    store(p, value);
+    momentum[0] = mass(p) * store.velocity_x(p);
+    momentum[1] = mass(p) * store.velocity_y(p);
+  }
+};
+
+// Sink of step 10: density, energy, pressure and artificial viscosity from div V; the particle
+// domain's stretches (diagonal of the deformation gradient, used by GIMP) from dVx/dx and dVy/dy.
+struct UpdateThermodynamics {
+  RealView density, specific_energy, pressure, viscosity, stretch_x, stretch_y;
+  real_t dt, gamma, cell_size, c0, c1;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&gradient)[2][2]) const {
+    const real_t div_v = gradient[0][0] + gradient[1][1];
+    stretch_x(p) *= 1 + dt * gradient[0][0];
+    stretch_y(p) *= 1 + dt * gradient[1][1];
+    const real_t rho = density(p);
+    const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure(p), rho), cell_size, div_v, c0, c1);
+    const real_t e_new = advanced_specific_energy(specific_energy(p), dt, pressure(p), q, rho, div_v);
+    const real_t rho_new = advanced_density(rho, dt, div_v);
+    specific_energy(p) = e_new;
+    density(p) = rho_new;
+    pressure(p) = perfect_gas_pressure(gamma, rho_new, e_new);
+    viscosity(p) = q;
+  }
+};
+
+// ---- Shapes ---------------------------------------------------------------------------------
+
+// The shape policy with the particle Views of now (migration may have reallocated them).
+LinearShape current_shape(const LinearShape& shape, const ParticleState&) { return shape; }
+GimpShape current_shape(GimpShape shape, const ParticleState& particles) {
+  shape.stretch_x = particles.domain_stretch_x;
+  shape.stretch_y = particles.domain_stretch_y;
+  return shape;
+}
+
+LinearShape make_shape(const LinearShape*, const CaseConfig&, const GridGeometry& geometry) {
+  return LinearShape{geometry};
+}
+GimpShape make_shape(const GimpShape*, const CaseConfig& config, const GridGeometry& geometry) {
+  // Each particle's initial domain is its share of the cell, ppc_x x ppc_y per cell.
+  return GimpShape{geometry, geometry.spacing_x / (2 * config.particles.per_cell_x),
+                   geometry.spacing_y / (2 * config.particles.per_cell_y), RealView(), RealView()};
+}
+
+// ---- How P2G accumulates ----------------------------------------------------------------------
+
+// Through ScatterViews, duplicated (a copy of the node fields per thread, summed at the end) or
+// atomic: all particles at once.
+template <class Duplication>
+class ScatterAccumulation {
+ public:
+  static constexpr bool duplicated = std::is_same<Duplication, Kokkos::Experimental::ScatterDuplicated>::value;
+  using Access = NodeScatterView<Duplication>;
+
+  explicit ScatterAccumulation(const GridFields& fields) : state_(fields.state), remap_(fields.momentum_remap) {}
+  void prepare(const ParticleState&, const GridGeometry&) {}
+  index_t traversal(const ParticleState& particles) const { return particles.count; }
+  Access& state() { return state_; }
+  Access& remap() { return remap_; }
+  // An accumulator into another View (the output projection), made for the occasion.
+  Access into(const NodeFieldsView& target) const { return Access(target); }
+  P2GStrategy strategy() const { return duplicated ? P2GStrategy::duplicated : P2GStrategy::atomic; }
+  // A duplicated ScatterView holds one copy of its target per thread (the target itself aside).
+  size_t extra_bytes() const {
+    if (!duplicated) return 0;
+    const size_t copies = static_cast<size_t>(ExecutionSpace().concurrency());
+    return copies * sizeof(real_t) * (state_.subview().span() + remap_.subview().span());
+  }
+
+ private:
+  // Kept alive across steps: creating a duplicated ScatterView allocates a copy per thread.
+  Access state_;
+  Access remap_;
+};
+
+// Sorted and coloured: the particles grouped by cell (CellOrder, rebuilt every step since the
+// particles move), then P2G colour by colour straight into the node fields. No copies, no
+// atomics, and the same sums in the same order for any thread count: bitwise reproducible.
+class ColouredAccumulation {
+ public:
+  using Access = DirectNodeAccess;
+
+  explicit ColouredAccumulation(const GridFields& fields) : state_{fields.state}, remap_{fields.momentum_remap} {}
+  void prepare(const ParticleState& particles, const GridGeometry& grid) {
+    order_.build(particles.cell, particles.count, grid.num_cells());
+    cells_ = {order_.cell_offset(), order_.particle(), grid.cells_x(), grid.cells_y()};
+  }
+  const ColouredCells& traversal(const ParticleState&) const { return cells_; }
+  Access& state() { return state_; }
+  Access& remap() { return remap_; }
+  Access into(const NodeFieldsView& target) const { return Access{target}; }
+  P2GStrategy strategy() const { return P2GStrategy::sorted; }
+  size_t extra_bytes() const { return order_.bytes(); }
+
+ private:
+  Access state_, remap_;
+  CellOrder order_;
+  ColouredCells cells_;
+};
+
+// ---- The transfers, specialised -----------------------------------------------------------------
+
+template <class Accumulation, class Shape>
+class Transfers final : public TransferKernels {
+ public:
+  Transfers(const CaseConfig& config, const GridGeometry& geometry, const GridFields& fields)
+      : geometry_(geometry),
+        fields_(fields),
+        accumulation_(fields),
+        shape_(make_shape(static_cast<const Shape*>(nullptr), config, geometry)) {}
+
+  void p2g_mass_momentum_force(const ParticleState& pt) override {
+    accumulation_.prepare(pt, geometry_);
+    p2g_begin(accumulation_.state(), fields_.state);
+    // Fused: the paper's P2G(M), P2G(M V) and P2GD((P + Q) M / rho) in one pass over the particles.
+    p2g_and_p2gd("p2g_mass_momentum_force", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
+                 accumulation_.state(), GridFields::mass, MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y},
+                 GridFields::force_x, InternalForce{pt.pressure, pt.artificial_viscosity, pt.mass, pt.density});
+    p2g_end(accumulation_.state(), fields_.state);
+  }
+
+  void g2p_p2g_velocity_momentum(const ParticleState& pt, real_t dt) override {
+    p2g_begin(accumulation_.remap(), fields_.momentum_remap);
+    g2p_then_p2g("g2p_p2g_velocity_momentum", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
+                 NodeColumns<4>{fields_.per_unit_mass, GridFields::velocity_x},
+                 AccelerateThenCarryMomentum{accelerate(pt, dt), pt.mass}, accumulation_.remap(),
+                 GridFields::remap_momentum_x);
+    p2g_end(accumulation_.remap(), fields_.momentum_remap);
+  }
+
+  void g2p_velocity_acceleration(const ParticleState& pt, real_t dt) override {
+    g2p("g2p_velocity_acceleration", current_shape(shape_, pt), pt.locations(), pt.count,
+        NodeColumns<4>{fields_.per_unit_mass, GridFields::velocity_x}, accelerate(pt, dt));
+  }
+
+  void p2g_momentum_remap(const ParticleState& pt) override {
+    p2g_begin(accumulation_.remap(), fields_.momentum_remap);
+    p2g("p2g_momentum_remap", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
+        accumulation_.remap(), GridFields::remap_momentum_x, Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
+    p2g_end(accumulation_.remap(), fields_.momentum_remap);
+  }
+
+  void g2pd_particle_update(const ParticleState& pt, const ThermodynamicConstants& k, real_t dt) override {
+    g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), pt.count,
+         NodeColumns<2>{fields_.per_unit_mass, GridFields::remap_velocity_x},
+         UpdateThermodynamics{pt.density, pt.specific_energy, pt.pressure, pt.artificial_viscosity,
+                              pt.domain_stretch_x, pt.domain_stretch_y, dt, k.gamma, k.cell_size,
+                              k.viscosity_quadratic, k.viscosity_linear});
+  }
+
+  void p2g_mass_momentum(const ParticleState& pt, const NodeFieldsView& target) override {
+    Kokkos::deep_copy(target, real_t(0));
+    accumulation_.prepare(pt, geometry_);
+    auto access = accumulation_.into(target);
+    p2g_begin(access, target);
+    p2g("p2g_mass_momentum", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt), access,
+        GridFields::mass, MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y});
+    p2g_end(access, target);
+  }
+
+  P2GStrategy strategy() const override { return accumulation_.strategy(); }
+  size_t scratch_bytes() const override { return accumulation_.extra_bytes(); }
+
+ private:
+  static StoreGridVelocityAndAccelerate accelerate(const ParticleState& pt, real_t dt) {
+    return {pt.grid_velocity_x, pt.grid_velocity_y, pt.velocity_x, pt.velocity_y, dt};
+  }
+
+  GridGeometry geometry_;
+  GridFields fields_;
+  Accumulation accumulation_;
+  Shape shape_;
+};
+
+template <class Accumulation>
+std::unique_ptr<TransferKernels> make_for_shape(const CaseConfig& config, const GridGeometry& geometry,
+                                                const GridFields& fields) {
+  if (config.numerics.shape_function == ShapeFunction::gimp)
+    return std::make_unique<Transfers<Accumulation, GimpShape>>(config, geometry, fields);
+  return std::make_unique<Transfers<Accumulation, LinearShape>>(config, geometry, fields);
+}
+
+}  // namespace
+
+std::unique_ptr<TransferKernels> make_transfer_kernels(const CaseConfig& config, const GridGeometry& geometry,
+                                                       const GridFields& fields) {
+  using Kokkos::Experimental::ScatterDuplicated;
+  using Kokkos::Experimental::ScatterNonDuplicated;
+  switch (config.numerics.p2g) {
+    case P2GStrategy::sorted: return make_for_shape<ColouredAccumulation>(config, geometry, fields);
+    case P2GStrategy::duplicated: return make_for_shape<ScatterAccumulation<ScatterDuplicated>>(config, geometry, fields);
+    case P2GStrategy::atomic: return make_for_shape<ScatterAccumulation<ScatterNonDuplicated>>(config, geometry, fields);
+    case P2GStrategy::automatic: break;
+  }
+  // Kokkos' own rule: duplicated copies where the grid lives in host memory (few threads, cheap
+  // copies), atomics on GPUs (thousands of threads, copies unaffordable).
+  if (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+    return make_for_shape<ScatterAccumulation<ScatterDuplicated>>(config, geometry, fields);
+  return make_for_shape<ScatterAccumulation<ScatterNonDuplicated>>(config, geometry, fields);
+}
+
+}  // namespace mpmflow

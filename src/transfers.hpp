@@ -1,0 +1,56 @@
+#pragma once
+// The particle-grid transfers of one MPM step (Algorithm 1, steps 3, 6-8 and 10, and the
+// projection for grid output), each one call of the generic kernels of kernels/ with the
+// on-the-fly functors of the paper. Behind this interface they are specialised, once, on the
+// shape function and on how P2G accumulates (ScatterView duplicated or atomic, or sorted and
+// coloured); the time step (mpm_step.hpp) calls them without knowing which.
+#include <memory>
+
+#include "case_config.hpp"
+#include "grid.hpp"
+#include "particles.hpp"
+
+namespace mpmflow {
+
+// The constants of the particle update (step 10): perfect gas and artificial viscosity.
+struct ThermodynamicConstants {
+  real_t gamma = 0;
+  real_t cell_size = 0;  // h of the artificial viscosity
+  real_t viscosity_quadratic = 0;
+  real_t viscosity_linear = 0;
+};
+
+// Bound to the grid fields of one slab (rebuilt with them).
+class TransferKernels {
+ public:
+  virtual ~TransferKernels() = default;
+
+  // 3. m = P2G(M), mv = P2G(M V), f = P2GD((P + Q) M / rho) into the state columns (zeroed).
+  virtual void p2g_mass_momentum_force(const ParticleState& particles) = 0;
+  // 6.-8. in one pass: V-bar = G2P(mv' / m), V' = V + dt G2P(f / m) from the per-unit-mass
+  // columns, then mv = P2G(M V') into the remap columns (zeroed).
+  virtual void g2p_p2g_velocity_momentum(const ParticleState& particles, real_t dt) = 0;
+  // 6.-7. alone: V-bar and V'.
+  virtual void g2p_velocity_acceleration(const ParticleState& particles, real_t dt) = 0;
+  // 8. alone: mv = P2G(M V') into the remap columns (zeroed).
+  virtual void p2g_momentum_remap(const ParticleState& particles) = 0;
+  // 10. grad V = G2PD(mv / m) from the remapped velocity columns; density, energy, pressure,
+  // artificial viscosity and (GIMP) the particle domain's stretches.
+  virtual void g2pd_particle_update(const ParticleState& particles, const ThermodynamicConstants& constants,
+                                    real_t dt) = 0;
+  // m = P2G(M), mv = P2G(M V) into `target` (GridFields::num_projection_columns columns, zeroed
+  // here): the particles' state on the grid, for output. Writes no field of the step.
+  virtual void p2g_mass_momentum(const ParticleState& particles, const NodeFieldsView& target) = 0;
+
+  // The P2G accumulation in use ("automatic" resolved for this execution space).
+  virtual P2GStrategy strategy() const = 0;
+  // Bytes held besides the grid fields: duplicated ScatterView copies, or the cell order.
+  virtual size_t scratch_bytes() const = 0;
+};
+
+// The transfers the case asks for (numerics/shape_function and numerics/p2g), on `fields` of a
+// slab of `geometry`.
+std::unique_ptr<TransferKernels> make_transfer_kernels(const CaseConfig& config, const GridGeometry& geometry,
+                                                       const GridFields& fields);
+
+}  // namespace mpmflow
