@@ -112,10 +112,15 @@ GimpShape current_shape(GimpShape shape, const ParticleState& particles) {
   return shape;
 }
 
-LinearShape make_shape(const LinearShape*, const CaseConfig&, const GridGeometry& geometry) {
+// The shape policy of a case on a slab of `geometry` (the particle Views come with current_shape).
+template <class Shape>
+Shape make_shape(const CaseConfig& config, const GridGeometry& geometry);
+template <>
+LinearShape make_shape<LinearShape>(const CaseConfig&, const GridGeometry& geometry) {
   return LinearShape{geometry};
 }
-GimpShape make_shape(const GimpShape*, const CaseConfig& config, const GridGeometry& geometry) {
+template <>
+GimpShape make_shape<GimpShape>(const CaseConfig& config, const GridGeometry& geometry) {
   // Each particle's initial domain is its share of the cell, ppc_x x ppc_y per cell.
   return GimpShape{geometry, geometry.spacing_x / (2 * config.particles.per_cell_x),
                    geometry.spacing_y / (2 * config.particles.per_cell_y), RealView(), RealView()};
@@ -186,7 +191,7 @@ class Transfers final : public TransferKernels {
       : geometry_(geometry),
         fields_(fields),
         accumulation_(fields),
-        shape_(make_shape(static_cast<const Shape*>(nullptr), config, geometry)) {}
+        shape_(make_shape<Shape>(config, geometry)) {}
 
   void p2g_mass_momentum_force(const ParticleState& pt) override {
     accumulation_.prepare(pt, geometry_);
