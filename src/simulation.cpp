@@ -193,7 +193,9 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 #endif
   };
   double t = restart.clock.time;
+#ifdef MPMFLOW_HAVE_HDF5
   long last_checkpoint_step = -1;
+#endif
   auto write_checkpoint_now = [&]() {
 #ifdef MPMFLOW_HAVE_HDF5
     if (checkpoint_interval <= 0 || last_checkpoint_step == solver.step_count()) return;

@@ -71,8 +71,6 @@ class Solver {
   const ParallelContext& context() const { return slab_->context(); }
   const SlabDecomposition& decomposition() const { return slab_->decomposition(); }
   const GridSlab& slab() const { return slab_->slab(); }
-  const GridFields& grid_fields() const { return slab_->fields(); }
-  const ObstacleGrid& obstacle_grid() const { return slab_->obstacles(); }
   const ParticleState& particles() const { return particles_; }
   ParticleState& particles() { return particles_; }
   PhaseTimers& timers() { return timers_; }
