@@ -82,7 +82,7 @@ constexpr GridSnapshotField grid_snapshot_fields[] = {
      [](const NodeSample& n) { return n.mass > n.mass_threshold ? n.momentum_y / n.mass : real_t(0); }},
 };
 
-// XDMF's name and size of a dataset's number type.
+// XDMF's NumberType of a dataset of T (its Precision is sizeof(T)).
 template <class T>
 const char* xdmf_number_type() {
   return std::is_integral<T>::value ? "Int" : "Float";
