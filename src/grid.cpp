@@ -55,9 +55,8 @@ IndexRange2D GridSlab::index_space(Ownership ownership, Entity entity, Indexing 
 }
 
 IndexRange2D GridSlab::shared_node_space(int direction) const {
-  const index_t owned_begin = axis == 0 ? owned_cell_begin_x : owned_cell_begin_y;
-  const index_t owned_end = axis == 0 ? owned_cell_end_x : owned_cell_end_y;
-  const bool has_neighbour = direction < 0 ? owned_begin > 0 : owned_end < global_cells(axis);
+  const IndexRange2D owned = index_space(Ownership::owned, Entity::cell, Indexing::global);
+  const bool has_neighbour = direction < 0 ? owned.begin(axis) > 0 : owned.end(axis) < global_cells(axis);
   if (!has_neighbour) return {};
   const index_t nodes_along = axis == 0 ? geometry.nodes_x : geometry.nodes_y;
   const index_t first = direction < 0 ? 0 : nodes_along - shared_lines;

@@ -66,8 +66,8 @@ struct GridSlab {
     return geometry.spacing_x < geometry.spacing_y ? geometry.spacing_x : geometry.spacing_y;
   }
   real_t cell_area() const { return geometry.spacing_x * geometry.spacing_y; }
-  index_t global_cells(int along) const { return along == 0 ? global_cells_x : global_cells_y; }
-  index_t node_offset(int along) const { return along == 0 ? node_offset_x : node_offset_y; }
+  KOKKOS_INLINE_FUNCTION index_t global_cells(int along) const { return along == 0 ? global_cells_x : global_cells_y; }
+  KOKKOS_INLINE_FUNCTION index_t node_offset(int along) const { return along == 0 ? node_offset_x : node_offset_y; }
   // Local index of global node column i / row j (may lie outside the local range), and back.
   index_t local_node_x(index_t global_i) const { return global_i - node_offset_x; }
   index_t local_node_y(index_t global_j) const { return global_j - node_offset_y; }
@@ -88,9 +88,8 @@ struct GridSlab {
   KOKKOS_INLINE_FUNCTION index_t global_cell_along(int along, real_t x, real_t y) const {
     const real_t local = along == 0 ? GridGeometry::floor_div(x - geometry.origin_x, geometry.spacing_x)
                                     : GridGeometry::floor_div(y - geometry.origin_y, geometry.spacing_y);
-    const index_t cell = static_cast<index_t>(local) + (along == 0 ? node_offset_x : node_offset_y);
-    const index_t cells = along == 0 ? global_cells_x : global_cells_y;
-    return cell < 0 ? 0 : (cell >= cells ? cells - 1 : cell);
+    const index_t cell = static_cast<index_t>(local) + node_offset(along);
+    return cell < 0 ? 0 : (cell >= global_cells(along) ? global_cells(along) - 1 : cell);
   }
 };
 
