@@ -48,7 +48,7 @@ void apply_open_sides(const GridSlab& slab, const BoundaryType (&side_type)[num_
                       state(node, GridFields::force_y) = 0;
                     }
                   });
-    } else if (side_type[s] == BoundaryType::outflow && with_force) {
+    } else if ((side_type[s] == BoundaryType::outflow || side_type[s] == BoundaryType::far_field) && with_force) {
       // Traction of the free-stream pressure: -p_inf n times the integral of N_i along the side,
       // one node spacing per node and half of one at the side's ends.
       const IndexRange2D line = within_domain(slab, slab.boundary_node_line(side, 0));
@@ -142,39 +142,10 @@ ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab&
       obstacles(obstacle_grid.obstacles),
       cell_near_obstacle(obstacle_grid.cell_near_obstacle),
       has_obstacles(!obstacle_grid.obstacles.empty()),
-      surface_offset(real_t(1e-6) * slab.cell_size()),
-      free_stream(config.boundaries.free_stream),
-      seed(config.particles.seed) {
-  real_t length = 0;
-  for (int s = 0; s < num_sides; ++s) {
-    if (side_type[s] != BoundaryType::inflow) continue;
-    length += (s == left_side || s == right_side) ? (y_max - y_min) : (x_max - x_min);
-    inflow_side[num_inflow_sides] = s;
-    inflow_length_end[num_inflow_sides] = length;
-    ++num_inflow_sides;
-  }
-  const real_t particles_per_cell = real_t(config.particles.per_cell_x * config.particles.per_cell_y);
-  free_stream_particle_mass = free_stream.density * slab.cell_area() / particles_per_cell;
-  free_stream_specific_energy = perfect_gas_specific_energy(config.physics.gamma, free_stream.density,
-                                                            free_stream.pressure);
-}
+      surface_offset(real_t(1e-6) * slab.cell_size()) {}
 
-void ParticleBoundaries::prepare_step(real_t dt, long step_index) {
-  step = static_cast<std::uint64_t>(step_index);
-  for (int k = 0; k < num_inflow_sides; ++k) {
-    const int s = inflow_side[k];
-    const bool x_normal = (s == left_side || s == right_side);
-    const real_t cell_depth = x_normal ? grid.spacing_x : grid.spacing_y;
-    const real_t inward_speed = x_normal ? (s == left_side ? free_stream.velocity_x : -free_stream.velocity_x)
-                                         : (s == bottom_side ? free_stream.velocity_y : -free_stream.velocity_y);
-    const real_t swept = inward_speed * dt;
-    strip_depth[k] = swept > 0 ? std::min(swept, cell_depth) : cell_depth;
-  }
-}
-
-void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt, long step) {
-  ParticleBoundaries rules = boundaries;  // with this step's strips and random stream
-  rules.prepare_step(dt, step);
+void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt) {
+  const ParticleBoundaries rules = boundaries;
   const ParticleState pt = particles;
   Kokkos::parallel_for(
       "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count),

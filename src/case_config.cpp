@@ -357,21 +357,27 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     read_boundary(r, "right", cfg.boundaries.right);
     read_boundary(r, "bottom", cfg.boundaries.bottom);
     read_boundary(r, "top", cfg.boundaries.top);
+    r.optional_choice("particle_supply", cfg.boundaries.particle_supply);
     r.finish();
   }
-  const bool open_sides = cfg.boundaries.any(BoundaryType::inflow) || cfg.boundaries.any(BoundaryType::outflow);
+  const bool open_sides = cfg.boundaries.any_open();
   if (root.has("free_stream")) {
     ObjectReader r = root.object("free_stream");
     cfg.boundaries.free_stream = read_gas_state(r);
     cfg.boundaries.has_free_stream = true;
     r.finish();
   } else if (open_sides) {
-    throw ConfigError(source + ": /free_stream: required key is missing (a side is an inflow or an outflow, so "
-                      "the free-stream density, velocity and pressure are needed)");
+    throw ConfigError(source + ": /free_stream: required key is missing (a side is an inflow, an outflow or a "
+                      "far field, so the free-stream density, velocity and pressure are needed)");
   }
-  if (cfg.boundaries.any(BoundaryType::outflow) && !cfg.boundaries.any(BoundaryType::inflow))
-    throw ConfigError(source + ": /boundaries: expected an inflow side where particles leaving through an outflow "
-                      "side re-enter; got outflow sides and no inflow");
+  if (cfg.boundaries.particle_supply == ParticleSupply::recycle) {
+    if (cfg.boundaries.any(BoundaryType::far_field))
+      throw ConfigError(source + ": /boundaries/particle_supply: far_field sides create and remove particles as "
+                        "the flow needs; expected \"open\" with far_field sides, got \"recycle\"");
+    if (cfg.boundaries.any(BoundaryType::outflow) && !cfg.boundaries.any(BoundaryType::inflow))
+      throw ConfigError(source + ": /boundaries: expected an inflow side where particles leaving through an "
+                        "outflow side re-enter (particle_supply \"recycle\"); got outflow sides and no inflow");
+  }
 
   if (root.has("obstacles")) {
     const json& obstacles = root.array("obstacles");

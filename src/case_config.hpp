@@ -15,10 +15,17 @@ struct ConfigError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-// Per side of the domain (paper, section 4.1): a slip wall (no normal velocity), an inflow (the
-// free-stream velocity imposed on the grid; particles re-enter there) or an outflow (no velocity
-// imposed; the free-stream pressure acts on the side; particles leaving are recycled to an inflow).
-enum class BoundaryType { slip_wall, inflow, outflow };
+// Per side of the domain (paper, section 4.1, and open sides): a slip wall (no normal velocity);
+// an inflow (the free-stream velocity imposed on the grid; free-stream particles enter with it);
+// an outflow (no velocity imposed; the free-stream pressure acts on the side; particles leave); a
+// far field (as an outflow, and where the gas at the side moves inwards, free-stream gas enters at
+// that speed: subsonic sides where the flow may go either way).
+enum class BoundaryType { slip_wall, inflow, outflow, far_field };
+// Where the particles of open sides come from: created from the free stream outside each inflow
+// (and far-field) side and removed when they leave (`open`, the particle count varies), or the
+// paper's recycling, which puts each particle that leaves back at an inflow (`recycle`, a fixed
+// count; a body's shock layer then starves the free stream of the mass it stores).
+enum class ParticleSupply { open, recycle };
 // Initial particles: the centres of a regular sub-grid of each cell, or uniform random positions
 // (the paper's choice for the wind-tunnel cases).
 enum class ParticlePlacement { regular, random };
@@ -67,12 +74,16 @@ struct BoundaryConfig {
   BoundaryType right = BoundaryType::slip_wall;
   BoundaryType bottom = BoundaryType::slip_wall;
   BoundaryType top = BoundaryType::slip_wall;
-  // The state imposed at inflow sides, given to recycled particles, and whose pressure acts on
-  // outflow sides. Required when a side is an inflow or an outflow.
+  ParticleSupply particle_supply = ParticleSupply::open;
+  // The state imposed at inflow sides, given to the particles entering, and whose pressure acts on
+  // outflow and far-field sides. Required when a side is open.
   bool has_free_stream = false;
   GasState free_stream;
 
   bool any(BoundaryType type) const { return left == type || right == type || bottom == type || top == type; }
+  bool any_open() const {
+    return any(BoundaryType::inflow) || any(BoundaryType::outflow) || any(BoundaryType::far_field);
+  }
 };
 
 // A solid obstacle, resolved at load time into the shape the signed distance function uses: a
@@ -88,8 +99,9 @@ struct ParticleConfig {
   ParticlePlacement placement = ParticlePlacement::regular;
   int per_cell_x = 2;
   int per_cell_y = 2;
-  // Every random number of a run (random placement, recycling) is a function of this seed, the
-  // particle's id and the step only: runs repeat exactly, on any number of threads or ranks.
+  // Every random number of a run (random placement, particles entering at open sides, recycling)
+  // is a function of this seed and of what it places (a particle's id and the step, or a side,
+  // its column and row of entering particles): runs repeat exactly, on any number of threads or ranks.
   unsigned long seed = 0;
 };
 
@@ -172,7 +184,15 @@ struct EnumNames;  // specialised for each enum of a case file: static constexpr
 template <>
 struct EnumNames<BoundaryType> {
   static constexpr EnumName<BoundaryType> table[] = {
-      {"slip_wall", BoundaryType::slip_wall}, {"inflow", BoundaryType::inflow}, {"outflow", BoundaryType::outflow}};
+      {"slip_wall", BoundaryType::slip_wall},
+      {"inflow", BoundaryType::inflow},
+      {"outflow", BoundaryType::outflow},
+      {"far_field", BoundaryType::far_field}};
+};
+template <>
+struct EnumNames<ParticleSupply> {
+  static constexpr EnumName<ParticleSupply> table[] = {{"open", ParticleSupply::open},
+                                                       {"recycle", ParticleSupply::recycle}};
 };
 template <>
 struct EnumNames<ParticlePlacement> {

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "hdf5_io.hpp"
+#include "open_boundaries.hpp"
 #include "solver.hpp"
 
 namespace mpmflow {
@@ -53,6 +54,14 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
       h5::write_attribute(file, (std::string("initial_") + name).c_str(), value);
     });
     h5::write_attribute(file, "node_mass_threshold", solver.node_mass_threshold());
+    {
+      std::vector<double> fluxes;
+      clock.fluxes.for_each_flux([&](const std::string&, double value) { fluxes.push_back(value); });
+      const hsize_t width = fluxes.size();
+      h5::write_block(file, "open_side_fluxes", {width * context.size()}, {width * context.rank()}, {width},
+                      fluxes.data(), context);
+    }
+    if (!clock.entry_distance.empty()) h5::write_replicated(file, "entry_distance", clock.entry_distance, context);
     std::vector<long long> slab_begin(solver.decomposition().cell_begin.begin(), solver.decomposition().cell_begin.end());
     h5::write_replicated(file, "slab_begin", slab_begin, context);
     h5::write_replicated(file, "particles_per_rank", counts, context);
@@ -107,6 +116,27 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
       value = h5::read_attribute(file, (std::string("initial_") + name).c_str());
     });
     clock.node_mass_threshold = h5::read_attribute(file, "node_mass_threshold");
+    {
+      // Rank-major rows of every flux (BoundaryFluxes::for_each_flux order).
+      hsize_t width = 0;
+      clock.fluxes.for_each_flux([&](const std::string&, double) { ++width; });
+      const int written_ranks_of_fluxes = static_cast<int>(h5::read_attribute(file, "num_ranks"));
+      const bool same_ranks = written_ranks_of_fluxes == context.size();
+      std::vector<double> rows;
+      if (same_ranks) rows = h5::read_rows<double>(file, "open_side_fluxes", width * context.rank(), width, context);
+      else rows = h5::read_rows<double>(file, "open_side_fluxes", 0, width * written_ranks_of_fluxes, context);
+      clock.fluxes = BoundaryFluxes{};
+      if (same_ranks || context.is_root()) {
+        size_t k = 0;
+        clock.fluxes.for_each_flux([&](const std::string&, double& value) {
+          for (size_t row = k; row < rows.size(); row += width) value += rows[row];
+          ++k;
+        });
+      }
+    }
+    const size_t num_distances = OpenBoundaries(config).entry_distance().size();
+    if (num_distances > 0)
+      clock.entry_distance = h5::read_rows<double>(file, "entry_distance", 0, num_distances, context);
     const int written_ranks = static_cast<int>(h5::read_attribute(file, "num_ranks"));
     const int axis = static_cast<int>(h5::read_attribute(file, "decomposition_axis"));
     const auto counts = h5::read_rows<long long>(file, "particles_per_rank", 0, written_ranks, context);

@@ -8,6 +8,7 @@
 // another rank count the particles are read in equal chunks and migrated to the owners of their
 // cells: the same run up to round-off (sums in another order).
 #include <string>
+#include <vector>
 
 #include "diagnostics.hpp"
 #include "parallel.hpp"
@@ -23,6 +24,10 @@ struct RunClock {
   int next_snapshot = 0;            // index of the next snapshot to write
   ConservationTotals initial_totals;  // of t = 0, for the drift reports
   double node_mass_threshold = 0;     // the solver's, fixed at t = 0 (restored for a bitwise restart)
+  std::vector<double> entry_distance;  // how far the free stream outside the open sides has moved
+  // Through the open sides since t = 0: written, each rank's own; read, this rank's own (same rank
+  // count: the sums continue bitwise) or, on another rank count, the global ones on rank 0.
+  BoundaryFluxes fluxes;
 };
 
 struct RestartState {

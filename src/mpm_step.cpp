@@ -66,7 +66,11 @@ void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long 
   }
   {  // 11. X' = X + dt V-bar; walls, open sides and obstacles
     auto t = timers.scope(Phase::particle_move);
-    move_particles(slab.particle_boundaries(), particles, dt, step);
+    move_particles(slab.particle_boundaries(), particles, dt);
+  }
+  {  // particles that left through open sides removed (or recycled), the free stream's entered
+    auto t = timers.scope(Phase::open_sides);
+    s.open_sides.exchange(s.particles, slab, dt, step);
   }
   {  // particles that left the slab go to the ranks owning their cells
     auto t = timers.scope(Phase::migration);

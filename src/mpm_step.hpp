@@ -1,6 +1,7 @@
 #pragma once
 // One explicit MPM step, the paper's Algorithm 1 (steps 2-12; the driver, Solver, takes the
 // time step size of step 13 and rebalances the slabs between steps).
+#include "open_boundaries.hpp"
 #include "particle_migration.hpp"
 #include "particles.hpp"
 #include "phase_timers.hpp"
@@ -15,6 +16,7 @@ struct StepState {
   ParticleState& particles;
   TransferKernels& transfers;
   ParticleMigration& migration;
+  OpenBoundaries& open_sides;
   PhaseTimers& timers;
 };
 

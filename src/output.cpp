@@ -24,16 +24,20 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   std::filesystem::rename(temporary, path);
 }
 
-void DiagnosticsLog::append(long step, double time, const ConservationTotals& t) {
+void DiagnosticsLog::append(long step, double time, const ConservationTotals& t, const BoundaryFluxes& fluxes) {
   if (text_.empty()) {
     text_ = "step,time";
     t.for_each_total([&](const char* name, double) { text_ += std::string(",") + name; });
-    text_ += ",total_energy\n";
+    text_ += ",total_energy";
+    fluxes.for_each_flux([&](const std::string& name, double) { text_ += "," + name; });
+    text_ += "\n";
   }
   std::ostringstream line;
   line << std::setprecision(17) << step << ',' << time;
   t.for_each_total([&](const char*, double value) { line << ',' << value; });
-  line << ',' << t.total_energy() << '\n';
+  line << ',' << t.total_energy();
+  fluxes.for_each_flux([&](const std::string&, double value) { line << ',' << value; });
+  line << '\n';
   text_ += line.str();
   write_file_atomically(path_, text_);
 }
@@ -129,7 +133,7 @@ void SnapshotWriter::resume(int num_written) {
 }
 
 std::string SnapshotWriter::write(int index, long step, double time, const Solver& solver,
-                                  const ConservationTotals& totals) {
+                                  const ConservationTotals& totals, const BoundaryFluxes& fluxes) {
   const NodeFieldsView projection = solver.grid_projection();
   const std::string name = file_name(index);
   const std::string path = directory_ + "/" + name;
@@ -155,6 +159,7 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
                   "create group diagnostics");
       totals.for_each_total([&](const char* name, double value) { h5::write_attribute(diag, name, value); });
       h5::write_attribute(diag, "total_energy", totals.total_energy());
+      fluxes.for_each_flux([&](const std::string& name, double value) { h5::write_attribute(diag, name.c_str(), value); });
     }
 
     {

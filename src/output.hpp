@@ -15,11 +15,13 @@ namespace mpmflow {
 // Writes `text` to `path` through a temporary file in the same directory and a rename.
 void write_file_atomically(const std::string& path, const std::string& text);
 
-// The conservation diagnostics of every output so far, as CSV (rewritten whole at each output).
+// The conservation diagnostics of every output so far, as CSV (rewritten whole at each output):
+// the totals, the total energy, and what crossed the open sides since t = 0 ("<total>_in",
+// "<total>_out").
 class DiagnosticsLog {
  public:
   explicit DiagnosticsLog(std::string path) : path_(std::move(path)) {}
-  void append(long step, double time, const ConservationTotals& totals);
+  void append(long step, double time, const ConservationTotals& totals, const BoundaryFluxes& fluxes);
   // After a restart at `step`: keeps the rows of the file up to that step.
   void resume(long step);
 
@@ -42,7 +44,8 @@ class SnapshotWriter {
   // Writes snapshot `index` and refreshes the XDMF time series; returns the HDF5 path. The grid
   // fields are the particles' mass and momentum projected where the particles are now
   // (Solver::grid_projection); nothing of the solver's state changes.
-  std::string write(int index, long step, double time, const Solver& solver, const ConservationTotals& totals);
+  std::string write(int index, long step, double time, const Solver& solver, const ConservationTotals& totals,
+                    const BoundaryFluxes& fluxes);
 
   std::string particles_xdmf_path() const;
   std::string grid_xdmf_path() const;

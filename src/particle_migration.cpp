@@ -1,5 +1,7 @@
 #include "particle_migration.hpp"
 
+#include "kernels/particle_compaction.hpp"
+
 #include <type_traits>
 #include <vector>
 
@@ -23,25 +25,6 @@ void find_destinations(const ParticleState& pt, const GridSlab& slab, const Slab
       });
 }
 #endif
-
-// Indices p in [first, last) with keep(p) true, in increasing order.
-template <class Predicate>
-IndexView select_indices(const char* label, index_t first, index_t last, const Predicate& keep) {
-  index_t count = 0;
-  Kokkos::parallel_reduce(
-      label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
-      KOKKOS_LAMBDA(const index_t p, index_t& n) { n += keep(p) ? 1 : 0; }, count);
-  IndexView selected(std::string(label), static_cast<size_t>(count));
-  Kokkos::parallel_scan(
-      label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
-      KOKKOS_LAMBDA(const index_t p, index_t& offset, const bool final) {
-        if (keep(p)) {
-          if (final) selected(offset) = p;
-          ++offset;
-        }
-      });
-  return selected;
-}
 
 // The fields a particle carries to another rank: real(field, column) for each real field, columns
 // counted from 0, and id(field) for the id (the cell map is recomputed on arrival). Returns the
@@ -78,14 +61,6 @@ void unpack_field(const FieldView& field, index_t first, index_t count, const Bu
       "migration_unpack", Kokkos::RangePolicy<ExecutionSpace>(0, count), KOKKOS_LAMBDA(const index_t s) {
         field(first + s) = buffer(static_cast<size_t>(s) * width + column);
       });
-}
-
-// field(holes(k)) = field(fillers(k)) for k in [0, count).
-template <class FieldView>
-void fill_holes(const FieldView& field, const IndexView& holes, const IndexView& fillers, index_t count) {
-  Kokkos::parallel_for(
-      "migration_fill_holes", Kokkos::RangePolicy<ExecutionSpace>(0, count),
-      KOKKOS_LAMBDA(const index_t k) { field(holes(k)) = field(fillers(k)); });
 }
 
 }  // namespace
@@ -166,15 +141,13 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
 
   // Close the holes: the leaving particles below the new count take the staying particles
   // above it, both in index order.
-  const index_t staying = n - num_leaving;
-  const IndexView fillers = select_indices(
-      "migration_fillers", staying, n, KOKKOS_LAMBDA(const index_t p) { return destination(p) == rank; });
-  const index_t num_holes = static_cast<index_t>(fillers.extent(0));  // = leaving particles below `staying`
-  pt.for_each_field([&](const auto& field) { fill_holes(field, leaving, fillers, num_holes); });
+  const index_t staying = close_holes(
+      n, leaving, KOKKOS_LAMBDA(const index_t p) { return destination(p) != rank; },
+      [&](const auto& f) { pt.for_each_field(f); });
 
   // Append the arrivals.
   const index_t new_count = staying + num_arriving;
-  if (new_count > pt.capacity()) pt.reserve(new_count + new_count / 8);  // room for the next arrivals
+  pt.grow_to_hold(new_count);
   pt.count = new_count;
   for_each_migrated_field(
       pt,

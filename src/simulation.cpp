@@ -26,12 +26,19 @@ std::string format_seconds(double s) {
   return out.str();
 }
 
-void print_totals(std::ostream& log, const char* label, const ConservationTotals& t, const ConservationTotals& t0) {
+// The totals of an output; with open sides, also the mass that crossed them and how well the mass
+// balance mass = mass(0) + in - out closes.
+void print_totals(std::ostream& log, const char* label, const ConservationTotals& t, const ConservationTotals& t0,
+                  const BoundaryFluxes& fluxes, bool open_sides) {
   log << std::setprecision(10) << "  " << label << ": mass " << t.mass << " (rel. change "
       << std::setprecision(3) << (t.mass - t0.mass) / t0.mass << ")" << std::setprecision(10) << ", momentum ("
       << t.momentum_x << ", " << t.momentum_y << "), kinetic " << t.kinetic_energy << ", internal "
       << t.internal_energy << ", total energy drift " << std::setprecision(3)
       << (t.total_energy() - t0.total_energy()) / t0.total_energy() << "\n";
+  if (open_sides)
+    log << std::setprecision(10) << "    open sides: mass in " << fluxes.entered.mass << ", out " << fluxes.left.mass
+        << ", mass balance residual (mass - mass(0) - in + out) / mass(0) " << std::setprecision(3)
+        << (t.mass - t0.mass - fluxes.entered.mass + fluxes.left.mass) / t0.mass << "\n";
 }
 
 void print_timer_table(std::ostream& log, const PhaseTimers& timers, long steps) {
@@ -95,6 +102,17 @@ ConservationTotals global_totals(DiagnosticsCalculator& diagnostics, const Solve
   return totals;
 }
 
+// The fluxes through the open sides over all ranks.
+BoundaryFluxes global_fluxes(const Solver& solver) {
+  BoundaryFluxes fluxes = solver.open_sides().fluxes();
+  std::vector<double> values;
+  fluxes.for_each_flux([&](const std::string&, double value) { values.push_back(value); });
+  solver.context().sum_in_place(values.data(), static_cast<int>(values.size()));
+  size_t k = 0;
+  fluxes.for_each_flux([&](const std::string&, double& value) { value = values[k++]; });
+  return fluxes;
+}
+
 std::string describe_slabs(const SlabDecomposition& d) {
   std::ostringstream out;
   out << (d.axis == 0 ? "x" : "y") << " cells";
@@ -135,7 +153,11 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   }
   Solver solver(config, context, restart.decomposition, std::move(restart.particles));
   solver.set_step_count(restart.clock.step);
-  if (restarting) solver.set_node_mass_threshold(static_cast<real_t>(restart.clock.node_mass_threshold));
+  if (restarting) {
+    solver.set_node_mass_threshold(static_cast<real_t>(restart.clock.node_mass_threshold));
+    solver.open_sides().restore(restart.clock.entry_distance, restart.clock.fluxes);
+  }
+  const bool open_sides = config.boundaries.any_open();
   DiagnosticsCalculator diagnostics(solver.particles().count);
   const long long n = solver.global_particle_count();
   const double end_time = config.time.end_time;
@@ -163,6 +185,8 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 
   RunSummary summary;
   summary.num_particles = static_cast<long>(n);
+  // The particle count at the last output (open sides change it), for the progress line's rate.
+  long long current_particles = n;
   const int snapshots = config.output.snapshots;
 #ifdef MPMFLOW_HAVE_HDF5
   std::unique_ptr<SnapshotWriter> writer;
@@ -180,16 +204,17 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 #endif
   int next_snapshot = restart.clock.next_snapshot;
   auto snapshot_time = [&](int k) { return end_time * k / snapshots; };
-  auto write_output = [&](double t, const ConservationTotals& totals) {
+  auto write_output = [&](double t, const ConservationTotals& totals, const BoundaryFluxes& fluxes) {
 #ifdef MPMFLOW_HAVE_HDF5
     if (!writer) return;
     auto scope = solver.timers().scope(Phase::output);
-    const std::string path = writer->write(next_snapshot, solver.step_count(), t, solver, totals);
-    if (diagnostics_log) diagnostics_log->append(solver.step_count(), t, totals);
+    const std::string path = writer->write(next_snapshot, solver.step_count(), t, solver, totals, fluxes);
+    if (diagnostics_log) diagnostics_log->append(solver.step_count(), t, totals, fluxes);
     log << "  output " << next_snapshot << " at t = " << t << ": " << path << std::endl;
 #else
     (void)t;
     (void)totals;
+    (void)fluxes;
 #endif
   };
   double t = restart.clock.time;
@@ -200,7 +225,9 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 #ifdef MPMFLOW_HAVE_HDF5
     if (checkpoint_interval <= 0 || last_checkpoint_step == solver.step_count()) return;
     auto scope = solver.timers().scope(Phase::checkpoint);
-    const RunClock clock{t, solver.step_count(), next_snapshot, summary.initial_totals, solver.node_mass_threshold()};
+    RunClock clock{t, solver.step_count(), next_snapshot, summary.initial_totals, solver.node_mass_threshold()};
+    clock.entry_distance = solver.open_sides().entry_distance();
+    clock.fluxes = solver.open_sides().fluxes();
     const std::string path =
         write_checkpoint(config.output.directory, config.name, solver, clock, config.output.checkpoints_kept);
     last_checkpoint_step = solver.step_count();
@@ -210,10 +237,11 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 
   const ConservationTotals start_totals = global_totals(diagnostics, solver);
   summary.initial_totals = restarting ? restart.clock.initial_totals : start_totals;
-  print_totals(log, restarting ? "restart" : "t = 0", start_totals, summary.initial_totals);
+  print_totals(log, restarting ? "restart" : "t = 0", start_totals, summary.initial_totals, global_fluxes(solver),
+               open_sides);
   bool last_state_written = false;
   if (snapshots > 0 && !restarting) {
-    write_output(0.0, summary.initial_totals);
+    write_output(0.0, summary.initial_totals, BoundaryFluxes{});
     next_snapshot = 1;
     last_state_written = true;
   }
@@ -238,7 +266,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
       if (snapshots > 0) {
         msg << "; the last good state is output " << next_snapshot - 1 << ", the failed state output "
             << next_snapshot << " in " << config.output.directory;
-        write_output(t, global_totals(diagnostics, solver));
+        write_output(t, global_totals(diagnostics, solver), global_fluxes(solver));
       }
       throw CollectiveError(msg.str());
     }
@@ -251,8 +279,10 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     }
     if (snapshots > 0 && t == target) {
       const ConservationTotals totals = global_totals(diagnostics, solver);
-      print_totals(log, ("t = " + std::to_string(t)).c_str(), totals, summary.initial_totals);
-      write_output(t, totals);
+      const BoundaryFluxes fluxes = global_fluxes(solver);
+      print_totals(log, ("t = " + std::to_string(t)).c_str(), totals, summary.initial_totals, fluxes, open_sides);
+      write_output(t, totals, fluxes);
+      current_particles = solver.global_particle_count();
       ++next_snapshot;
       last_state_written = true;
     }
@@ -262,7 +292,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     const double elapsed = wall.seconds();
     if (elapsed - last_report >= options.progress_interval_seconds) {
       last_report = elapsed;
-      const double rate = double(n) * (solver.step_count() - first_step) / elapsed;
+      const double rate = double(current_particles) * (solver.step_count() - first_step) / elapsed;
       const double fraction = t / end_time;
       const double start_fraction = restart.clock.time / end_time;
       const double done = fraction - start_fraction;
@@ -274,8 +304,9 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   }
 
   summary.final_totals = global_totals(diagnostics, solver);
+  summary.final_fluxes = global_fluxes(solver);
   if (!last_state_written && snapshots > 0) {
-    write_output(t, summary.final_totals);
+    write_output(t, summary.final_totals, summary.final_fluxes);
     ++next_snapshot;
   }
   write_checkpoint_now();
@@ -283,14 +314,15 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   summary.end_time = t;
   summary.wall_seconds = wall.seconds();
   const long steps_run = summary.steps - first_step;
-  summary.particle_steps_per_second = summary.wall_seconds > 0 ? double(n) * steps_run / summary.wall_seconds : 0;
+  const double particle_steps = double(solver.context().sum(solver.particle_steps()));
+  summary.particle_steps_per_second = summary.wall_seconds > 0 ? particle_steps / summary.wall_seconds : 0;
 
   log << "done: " << summary.steps << " steps to t = " << t << " in " << format_seconds(summary.wall_seconds)
       << ", " << std::scientific << std::setprecision(3) << summary.particle_steps_per_second << std::defaultfloat
       << " particle-steps/s";
   if (context.distributed()) log << " on " << context.size() << " ranks";
   log << "\n";
-  print_totals(log, "final", summary.final_totals, summary.initial_totals);
+  print_totals(log, "final", summary.final_totals, summary.initial_totals, summary.final_fluxes, open_sides);
   if (context.distributed()) log << "\n(phase times of rank 0)";
   print_timer_table(log, solver.timers(), steps_run);
   if (!summary.output_directory.empty()) {

@@ -24,6 +24,7 @@ struct RunSummary {
   long num_particles = 0;
   ConservationTotals initial_totals;
   ConservationTotals final_totals;
+  BoundaryFluxes final_fluxes;  // through the open sides since t = 0
   std::string output_directory;  // empty when nothing was written
 };
 

@@ -78,9 +78,15 @@ class Solver {
   // The P2G accumulation in use, after resolving "automatic" for this execution space.
   P2GStrategy p2g_strategy() const { return transfers_->strategy(); }
 
+  // The open sides: what entered and left through them, and the state of the free stream outside.
+  const OpenBoundaries& open_sides() const { return open_sides_; }
+  OpenBoundaries& open_sides() { return open_sides_; }
+
   // Restart state: the steps taken, and the node-mass threshold (fixed from the particles at
-  // t = 0; recycling changes particle masses, so recomputing it on restart would change the run).
+  // t = 0; open sides change the particles, so recomputing it on restart would change the run).
   long step_count() const { return step_count_; }
+  // The particles this rank advanced, summed over the steps taken since this Solver was made.
+  long long particle_steps() const { return particle_steps_; }
   void set_step_count(long steps) { step_count_ = steps; }
   real_t node_mass_threshold() const { return settings_.node_mass_threshold; }
   void set_node_mass_threshold(real_t threshold) { settings_.node_mass_threshold = threshold; }
@@ -108,10 +114,12 @@ class Solver {
   ParticleState particles_;
   std::unique_ptr<TransferKernels> transfers_;
   ParticleMigration migration_;
+  OpenBoundaries open_sides_;
   PhaseTimers timers_;
   StepSettings settings_;
   std::vector<BalanceReport> balance_reports_;
   long step_count_ = 0;
+  long long particle_steps_ = 0;
 };
 
 }  // namespace mpmflow

@@ -95,7 +95,7 @@ TEST_F(CommandLine, OutOfRangeValueIsRejected) {
 
 TEST_F(CommandLine, BadEnumIsRejected) {
   write_case("case.json", sod_with("\"left\": { \"type\": \"slip_wall\" }", "\"left\": { \"type\": \"wall\" }"));
-  expect_rejected("run case.json", "case.json: /boundaries/left/type: expected one of slip_wall, inflow, outflow; got \"wall\"");
+  expect_rejected("run case.json", "case.json: /boundaries/left/type: expected one of slip_wall, inflow, outflow, far_field; got \"wall\"");
 }
 
 TEST_F(CommandLine, InvalidJsonAndMissingFileAreRejected) {

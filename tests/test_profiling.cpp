@@ -59,8 +59,8 @@ TEST(Profiling, EveryPhaseIsANamedRegion) {
   for (const Phase phase : {Phase::time_step, Phase::grid_reset, Phase::p2g_mass_momentum_force,
                             Phase::halo_exchange, Phase::boundary_conditions, Phase::grid_momentum_update,
                             Phase::g2p_p2g_velocity_momentum, Phase::grid_remap_velocity,
-                            Phase::g2pd_particle_update, Phase::particle_move, Phase::migration, Phase::cell_map,
-                            Phase::reorder})
+                            Phase::g2pd_particle_update, Phase::particle_move, Phase::open_sides,
+                            Phase::migration, Phase::cell_map, Phase::reorder})
     EXPECT_TRUE(regions.count(phase_name(phase))) << "no region " << phase_name(phase);
 }
 

@@ -15,6 +15,16 @@ python3-numpy (scripts/setup.sh installs them).
       The bow-shock stand-off distance and the nose pressure on the symmetry line of a cylinder in
       supersonic flow, against Billig's correlation and the Rayleigh pitot formula; with the
       --max-*-error options, exits 1 when an error exceeds the given fraction.
+  mpmflow_plot.py region OUTPUT_DIR --x A B [--y C D] [--density RHO] [--per-cell N] [--last K]
+                  [--max-density-error F] [--max-per-cell-error F]
+      The gas in a box: its mass per unit area (the particles' masses over the box's area) and its
+      particles per grid cell, per output and on average over the last K outputs, against a
+      density and a particle count per cell (e.g. the free stream ahead of a body); with the
+      --max-*-error options, exits 1 when an error exceeds the given fraction.
+  mpmflow_plot.py mass-balance OUTPUT_DIR [--max-residual F]
+      From diagnostics.csv: the mass in the domain against the initial mass plus what entered
+      minus what left through the open sides, at every output; with --max-residual, exits 1 when
+      the residual relative to the initial mass exceeds F.
 
 Fields are binned from the particles onto the cells of the output grid, mass-weighted: a particle
 carries the state, the grid only its mass and momentum.
@@ -32,7 +42,8 @@ import numpy as np
 
 
 def snapshot_files(output_dir):
-    files = sorted(f for f in glob.glob(os.path.join(output_dir, "*.h5")))
+    """The snapshots <case>_<index>.h5 of a run (not its checkpoints), in output order."""
+    files = sorted(f for f in glob.glob(os.path.join(output_dir, "*.h5")) if "_checkpoint_" not in os.path.basename(f))
     if not files:
         sys.exit(f"mpmflow_plot: error: no HDF5 snapshots (*.h5) in {output_dir}")
     return files
@@ -262,6 +273,63 @@ def bow_shock(args):
     return 1 if failed else 0
 
 
+def region(args):
+    files = snapshot_files(args.output_dir)[-args.last:]
+    densities, per_cells = [], []
+    for path in files:
+        s = Snapshot(path)
+        x0, x1 = args.x
+        y0, y1 = args.y if args.y else (s.extent()[2], s.extent()[3])
+        inside = (s.x >= x0) & (s.x < x1) & (s.y >= y0) & (s.y < y1)
+        area = (x1 - x0) * (y1 - y0)
+        density = float(np.sum(s.particles["mass"][inside])) / area
+        per_cell = float(np.count_nonzero(inside)) / (area / (s.spacing[0] * s.spacing[1]))
+        densities.append(density)
+        per_cells.append(per_cell)
+        print(f"t = {s.time:8.4f}: mass per area {density:.4f}, particles per cell {per_cell:.3f}")
+    density, per_cell = float(np.mean(densities)), float(np.mean(per_cells))
+    print(f"mean of the last {len(files)} outputs: mass per area {density:.4f}, particles per cell {per_cell:.3f}")
+    failed = False
+    if args.density is not None:
+        error = abs(density - args.density) / args.density
+        print(f"  mass per area against {args.density}: error {100 * error:.2f}%")
+        if args.max_density_error is not None and error > args.max_density_error:
+            print(f"FAIL: mass per area error {100 * error:.2f}% > {100 * args.max_density_error:.2f}%")
+            failed = True
+    if args.per_cell is not None:
+        error = abs(per_cell - args.per_cell) / args.per_cell
+        print(f"  particles per cell against {args.per_cell}: error {100 * error:.2f}%")
+        if args.max_per_cell_error is not None and error > args.max_per_cell_error:
+            print(f"FAIL: particles per cell error {100 * error:.2f}% > {100 * args.max_per_cell_error:.2f}%")
+            failed = True
+    return 1 if failed else 0
+
+
+def mass_balance(args):
+    import csv
+    path = os.path.join(args.output_dir, "diagnostics.csv")
+    try:
+        with open(path, newline="") as f:
+            rows = list(csv.DictReader(f))
+    except OSError as e:
+        sys.exit(f"mpmflow_plot: error: {path}: {e.strerror}")
+    if not rows or "mass_in" not in rows[0]:
+        sys.exit(f"mpmflow_plot: error: {path}: expected rows with the columns mass, mass_in and mass_out")
+    mass0 = float(rows[0]["mass"])
+    worst = 0.0
+    for row in rows:
+        mass, entered, left = float(row["mass"]), float(row["mass_in"]), float(row["mass_out"])
+        residual = (mass - mass0 - entered + left) / mass0
+        worst = max(worst, abs(residual))
+        print(f"t = {float(row['time']):8.4f}: mass {mass:.10g}, in {entered:.10g}, out {left:.10g}, "
+              f"residual {residual:.2e}")
+    print(f"largest residual (mass - mass(0) - in + out) / mass(0): {worst:.2e}")
+    if args.max_residual is not None and worst > args.max_residual:
+        print(f"FAIL: mass balance residual {worst:.2e} > {args.max_residual:.2e}")
+        return 1
+    return 0
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -285,11 +353,27 @@ def main():
     shock.add_argument("--last", type=int, default=3, help="average over the last K outputs")
     shock.add_argument("--max-standoff-error", type=float)
     shock.add_argument("--max-pitot-error", type=float)
+    box = sub.add_parser("region", help="mass per area and particles per cell in a box")
+    box.add_argument("output_dir")
+    box.add_argument("--x", type=float, nargs=2, required=True, metavar=("A", "B"))
+    box.add_argument("--y", type=float, nargs=2, metavar=("C", "D"), help="(default: the whole height)")
+    box.add_argument("--density", type=float, help="the expected mass per area")
+    box.add_argument("--per-cell", type=float, help="the expected particles per cell")
+    box.add_argument("--last", type=int, default=1, help="average over the last K outputs")
+    box.add_argument("--max-density-error", type=float)
+    box.add_argument("--max-per-cell-error", type=float)
+    balance = sub.add_parser("mass-balance", help="the mass balance with the open sides, from diagnostics.csv")
+    balance.add_argument("output_dir")
+    balance.add_argument("--max-residual", type=float)
     args = parser.parse_args()
     if args.command == "fields":
         plot_fields(args)
     elif args.command == "sod":
         plot_sod(args)
+    elif args.command == "region":
+        sys.exit(region(args))
+    elif args.command == "mass-balance":
+        sys.exit(mass_balance(args))
     else:
         sys.exit(bow_shock(args))
 

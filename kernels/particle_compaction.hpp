@@ -1,0 +1,53 @@
+#pragma once
+// Removing particles from the particle arrays in a deterministic order: after migration (the
+// particles that left for another rank) and at open sides of the domain (those that left it).
+// The holes the removed particles leave below the new count are filled by the last staying
+// particles, both in index order: the result is the same on any thread count.
+#include <string>
+
+#include "kernels/types.hpp"
+
+namespace mpmflow {
+
+// Indices p in [first, last) with keep(p) true, in increasing order.
+template <class Predicate>
+IndexView select_indices(const char* label, index_t first, index_t last, const Predicate& keep) {
+  index_t count = 0;
+  Kokkos::parallel_reduce(
+      label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
+      KOKKOS_LAMBDA(const index_t p, index_t& n) { n += keep(p) ? 1 : 0; }, count);
+  IndexView selected(std::string(label), static_cast<size_t>(count));
+  Kokkos::parallel_scan(
+      label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
+      KOKKOS_LAMBDA(const index_t p, index_t& offset, const bool final) {
+        if (keep(p)) {
+          if (final) selected(offset) = p;
+          ++offset;
+        }
+      });
+  return selected;
+}
+
+// field(holes(k)) = field(fillers(k)) for k in [0, count). (A named function, not a lambda in the
+// caller: nvcc does not allow a device lambda inside the generic lambdas that visit the fields.)
+template <class FieldView>
+void fill_holes(const FieldView& field, const IndexView& holes, const IndexView& fillers, index_t count) {
+  Kokkos::parallel_for(
+      "particle_fill_holes", Kokkos::RangePolicy<ExecutionSpace>(0, count),
+      KOKKOS_LAMBDA(const index_t k) { field(holes(k)) = field(fillers(k)); });
+}
+
+// The staying particles of [0, n) packed into [0, n - removed.extent(0)), given `removed`, the
+// removed particles in increasing order, and `removed_at`, which tells whether a particle is one
+// of them. `for_each_field(f)` calls f(view) for every particle View. Returns the new count.
+template <class IsRemoved, class ForEachField>
+index_t close_holes(index_t n, const IndexView& removed, const IsRemoved& removed_at, const ForEachField& for_each_field) {
+  const index_t staying = n - static_cast<index_t>(removed.extent(0));
+  const IndexView fillers = select_indices(
+      "particle_hole_fillers", staying, n, KOKKOS_LAMBDA(const index_t p) { return !removed_at(p); });
+  const index_t num_holes = static_cast<index_t>(fillers.extent(0));  // = removed particles below `staying`
+  for_each_field([&](const auto& field) { fill_holes(field, removed, fillers, num_holes); });
+  return staying;
+}
+
+}  // namespace mpmflow
