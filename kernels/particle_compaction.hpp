@@ -37,17 +37,24 @@ void fill_holes(const FieldView& field, const IndexView& holes, const IndexView&
       KOKKOS_LAMBDA(const index_t k) { field(holes(k)) = field(fillers(k)); });
 }
 
-// The staying particles of [0, n) packed into [0, n - removed.extent(0)), given `removed`, the
-// removed particles in increasing order, and `removed_at`, which tells whether a particle is one
-// of them. `for_each_field(f)` calls f(view) for every particle View. Returns the new count.
-template <class IsRemoved, class ForEachField>
-index_t close_holes(index_t n, const IndexView& removed, const IsRemoved& removed_at, const ForEachField& for_each_field) {
-  const index_t staying = n - static_cast<index_t>(removed.extent(0));
-  const IndexView fillers = select_indices(
-      "particle_hole_fillers", staying, n, KOKKOS_LAMBDA(const index_t p) { return !removed_at(p); });
-  const index_t num_holes = static_cast<index_t>(fillers.extent(0));  // = removed particles below `staying`
-  for_each_field([&](const auto& field) { fill_holes(field, removed, fillers, num_holes); });
-  return staying;
+// The hole filling that packs the staying particles of [0, n) into [0, staying): the removed
+// particles below `staying` (the holes) take the staying particles at and above it (the fillers),
+// both in index order. `removed` lists the removed particles in increasing order, and
+// `removed_at(p)` tells whether p is one of them. Apply it with fill_holes on every field.
+struct HoleFilling {
+  index_t staying = 0;  // the new count
+  IndexView holes, fillers;
+  index_t count = 0;    // holes to fill
+};
+template <class IsRemoved>
+HoleFilling plan_hole_filling(index_t n, const IndexView& removed, const IsRemoved& removed_at) {
+  HoleFilling plan;
+  plan.staying = n - static_cast<index_t>(removed.extent(0));
+  plan.holes = removed;
+  plan.fillers = select_indices(
+      "particle_hole_fillers", plan.staying, n, KOKKOS_LAMBDA(const index_t p) { return !removed_at(p); });
+  plan.count = static_cast<index_t>(plan.fillers.extent(0));  // = removed particles below `staying`
+  return plan;
 }
 
 }  // namespace mpmflow

@@ -340,8 +340,11 @@ void OpenBoundaries::exchange(ParticleState& pt, const SlabState& slab_state, re
   }
 
   // Open: the particles that have left are removed ...
-  if (num_leaving > 0)
-    pt.count = close_holes(pt.count, leaving, outside, [&](const auto& f) { pt.for_each_field(f); });
+  if (num_leaving > 0) {
+    const HoleFilling plan = plan_hole_filling(pt.count, leaving, outside);
+    pt.for_each_field([&](const auto& field) { fill_holes(field, plan.holes, plan.fillers, plan.count); });
+    pt.count = plan.staying;
+  }
 
   // ... and the lattice outside the entering sides moves in by its inward speed x dt.
   for (const EntrySide& side : sides_) {

@@ -141,9 +141,10 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
 
   // Close the holes: the leaving particles below the new count take the staying particles
   // above it, both in index order.
-  const index_t staying = close_holes(
-      n, leaving, KOKKOS_LAMBDA(const index_t p) { return destination(p) != rank; },
-      [&](const auto& f) { pt.for_each_field(f); });
+  const HoleFilling plan =
+      plan_hole_filling(n, leaving, KOKKOS_LAMBDA(const index_t p) { return destination(p) != rank; });
+  pt.for_each_field([&](const auto& field) { fill_holes(field, plan.holes, plan.fillers, plan.count); });
+  const index_t staying = plan.staying;
 
   // Append the arrivals.
   const index_t new_count = staying + num_arriving;
