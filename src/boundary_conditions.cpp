@@ -29,7 +29,7 @@ IndexRange2D within_domain(const GridSlab& slab, const IndexRange2D& line) {
 }
 
 // (Free functions rather than private members: CUDA forbids device lambdas in private members.)
-void apply_open_sides(const GridSlab& slab, const BoundaryType (&side_type)[num_sides],
+void apply_open_sides(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
                       const GasState& free_stream, const NodeFieldsView& momentum, int column_x,
                       const NodeFieldsView& state, bool with_force) {
   const GridGeometry& geo = slab.geometry;
@@ -78,7 +78,7 @@ void apply_open_sides(const GridSlab& slab, const BoundaryType (&side_type)[num_
   }
 }
 
-void apply_slip_walls(const GridSlab& slab, const BoundaryType (&side_type)[num_sides],
+void apply_slip_walls(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
                       const NodeFieldsView& fields, int column_x) {
   const GridGeometry& geo = slab.geometry;
   for (int s = 0; s < num_sides; ++s) {
@@ -112,7 +112,7 @@ void remove_inward_component(const ObstacleGrid& obstacles, const NodeFieldsView
 GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const GridSlab& slab,
                                                const ObstacleGrid& obstacles)
     : slab_(slab),
-      side_type_{config.boundaries.left, config.boundaries.right, config.boundaries.bottom, config.boundaries.top},
+      side_type_(config.boundaries.side_types()),
       free_stream_(config.boundaries.free_stream),
       obstacles_(obstacles) {}
 
@@ -133,16 +133,15 @@ void GridBoundaryConditions::apply_to_momentum(const NodeFieldsView& momentum, i
 
 ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab& slab,
                                        const ObstacleGrid& obstacle_grid)
-    : x_min(slab.domain_x_min),
-      x_max(slab.domain_x_max),
-      y_min(slab.domain_y_min),
-      y_max(slab.domain_y_max),
-      side_type{config.boundaries.left, config.boundaries.right, config.boundaries.bottom, config.boundaries.top},
+    : domain(slab),
       grid(slab.geometry),
       obstacles(obstacle_grid.obstacles),
       cell_near_obstacle(obstacle_grid.cell_near_obstacle),
       has_obstacles(!obstacle_grid.obstacles.empty()),
-      surface_offset(real_t(1e-6) * slab.cell_size()) {}
+      surface_offset(real_t(1e-6) * slab.cell_size()) {
+  const auto types = config.boundaries.side_types();
+  std::copy(types.begin(), types.end(), side_type);
+}
 
 void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt) {
   const ParticleBoundaries rules = boundaries;

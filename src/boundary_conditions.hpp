@@ -1,12 +1,43 @@
 #pragma once
 // Boundary conditions on grid nodal vectors (Algorithm 1, steps 4 and 9) and on particles after
 // their move: the wind tunnel's sides and the obstacles.
+#include <array>
+
 #include "case_config.hpp"
 #include "geometry.hpp"
 #include "grid.hpp"
 #include "particles.hpp"
 
 namespace mpmflow {
+
+// The domain [x_min, x_max] x [y_min, y_max] as particle kernels see it.
+struct DomainBox {
+  real_t x_min = 0, x_max = 0, y_min = 0, y_max = 0;
+
+  DomainBox() = default;
+  explicit DomainBox(const GridSlab& slab)
+      : x_min(slab.domain_x_min), x_max(slab.domain_x_max), y_min(slab.domain_y_min), y_max(slab.domain_y_max) {}
+
+  KOKKOS_INLINE_FUNCTION bool outside(real_t x, real_t y) const {
+    return x < x_min || x > x_max || y < y_min || y > y_max;
+  }
+  // (x, y) moved onto the domain's closure: round-off must not leave a particle a hair outside.
+  KOKKOS_INLINE_FUNCTION void clamp(real_t& x, real_t& y) const {
+    x = x < x_min ? x_min : (x > x_max ? x_max : x);
+    y = y < y_min ? y_min : (y > y_max ? y_max : y);
+  }
+  // The point `depth` inside `side` (grid.hpp's Side) and `along` it from its corner at x_min or
+  // y_min, clamped to the domain.
+  KOKKOS_INLINE_FUNCTION void point_inside_side(int side, real_t along, real_t depth, real_t& x, real_t& y) const {
+    switch (side) {
+      case left_side: x = x_min + depth; y = y_min + along; break;
+      case right_side: x = x_max - depth; y = y_min + along; break;
+      case bottom_side: x = x_min + along; y = y_min + depth; break;
+      default: x = x_min + along; y = y_max - depth; break;
+    }
+    clamp(x, y);
+  }
+};
 
 // On the grid, per side (the side's node line and the ghost lines beyond it, which GIMP stencils
 // reach):
@@ -28,7 +59,7 @@ class GridBoundaryConditions {
 
  private:
   GridSlab slab_;
-  BoundaryType side_type_[num_sides] = {};
+  std::array<BoundaryType, num_sides> side_type_ = {};
   GasState free_stream_;
   ObstacleGrid obstacles_;
 };
@@ -39,8 +70,8 @@ class GridBoundaryConditions {
 // far field) is left where it is, outside the domain: the open sides remove or recycle it
 // (open_boundaries.hpp). No particle stays inside an obstacle.
 struct ParticleBoundaries {
-  real_t x_min = 0, x_max = 0, y_min = 0, y_max = 0;
-  BoundaryType side_type[num_sides] = {};
+  DomainBox domain;
+  BoundaryType side_type[num_sides] = {};  // a C array: device code reads it
   GridGeometry grid;
   DeviceObstacleSet obstacles;
   IndexView cell_near_obstacle;
@@ -63,24 +94,24 @@ KOKKOS_INLINE_FUNCTION void ParticleBoundaries::move(index_t p, real_t dt, const
   real_t x = pt.position_x(p) + dt * pt.grid_velocity_x(p);
   real_t y = pt.position_y(p) + dt * pt.grid_velocity_y(p);
   // Slip walls: mirror, and keep no velocity out of the domain.
-  if (x < x_min && side_type[left_side] == BoundaryType::slip_wall) {
-    x = 2 * x_min - x;
+  if (x < domain.x_min && side_type[left_side] == BoundaryType::slip_wall) {
+    x = 2 * domain.x_min - x;
     if (pt.velocity_x(p) < 0) pt.velocity_x(p) = 0;
   }
-  if (x > x_max && side_type[right_side] == BoundaryType::slip_wall) {
-    x = 2 * x_max - x;
+  if (x > domain.x_max && side_type[right_side] == BoundaryType::slip_wall) {
+    x = 2 * domain.x_max - x;
     if (pt.velocity_x(p) > 0) pt.velocity_x(p) = 0;
   }
-  if (y < y_min && side_type[bottom_side] == BoundaryType::slip_wall) {
-    y = 2 * y_min - y;
+  if (y < domain.y_min && side_type[bottom_side] == BoundaryType::slip_wall) {
+    y = 2 * domain.y_min - y;
     if (pt.velocity_y(p) < 0) pt.velocity_y(p) = 0;
   }
-  if (y > y_max && side_type[top_side] == BoundaryType::slip_wall) {
-    y = 2 * y_max - y;
+  if (y > domain.y_max && side_type[top_side] == BoundaryType::slip_wall) {
+    y = 2 * domain.y_max - y;
     if (pt.velocity_y(p) > 0) pt.velocity_y(p) = 0;
   }
   // Open sides: whatever is still outside has left the domain through one of them.
-  if (x < x_min || x > x_max || y < y_min || y > y_max) {
+  if (domain.outside(x, y)) {
     pt.position_x(p) = x;
     pt.position_y(p) = y;
     return;
@@ -97,9 +128,9 @@ KOKKOS_INLINE_FUNCTION void ParticleBoundaries::move(index_t p, real_t dt, const
       }
     }
   }
-  // Round-off must not leave a particle a hair outside (an obstacle touching a side, a mirror).
-  pt.position_x(p) = x < x_min ? x_min : (x > x_max ? x_max : x);
-  pt.position_y(p) = y < y_min ? y_min : (y > y_max ? y_max : y);
+  domain.clamp(x, y);  // an obstacle touching a side, a mirror
+  pt.position_x(p) = x;
+  pt.position_y(p) = y;
 }
 
 }  // namespace mpmflow

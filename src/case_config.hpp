@@ -1,6 +1,8 @@
 #pragma once
 // A case file parsed into typed, validated structs. Parsing rejects unknown keys, wrong types and
 // out-of-range values with a ConfigError naming the file, the JSON path and what was expected.
+#include <algorithm>
+#include <array>
 #include <stdexcept>
 #include <map>
 #include <string>
@@ -80,7 +82,12 @@ struct BoundaryConfig {
   bool has_free_stream = false;
   GasState free_stream;
 
-  bool any(BoundaryType type) const { return left == type || right == type || bottom == type || top == type; }
+  // The type of every side, in the order of grid.hpp's Side (left, right, bottom, top).
+  std::array<BoundaryType, 4> side_types() const { return {left, right, bottom, top}; }
+  bool any(BoundaryType type) const {
+    const auto types = side_types();
+    return std::find(types.begin(), types.end(), type) != types.end();
+  }
   bool any_open() const {
     return any(BoundaryType::inflow) || any(BoundaryType::outflow) || any(BoundaryType::far_field);
   }

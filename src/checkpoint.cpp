@@ -134,7 +134,7 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
         });
       }
     }
-    const size_t num_distances = OpenBoundaries(config).entry_distance().size();
+    const size_t num_distances = OpenBoundaries::num_entry_cells(config);
     if (num_distances > 0)
       clock.entry_distance = h5::read_rows<double>(file, "entry_distance", 0, num_distances, context);
     const int written_ranks = static_cast<int>(h5::read_attribute(file, "num_ranks"));

@@ -5,7 +5,6 @@
 #include <limits>
 #include <stdexcept>
 
-#include "counter_random.hpp"
 #include "gas_physics.hpp"
 #include "kernels/particle_compaction.hpp"
 
@@ -21,11 +20,9 @@ KOKKOS_INLINE_FUNCTION void inward_normal(int side, real_t& nx, real_t& ny) {
 // Whether a point lies outside the domain: it has left through a side that is open (the move
 // keeps particles inside at walls and obstacles).
 struct OutsideDomain {
-  real_t x_min, x_max, y_min, y_max;
+  DomainBox domain;
   RealView x, y;
-  KOKKOS_INLINE_FUNCTION bool operator()(const index_t p) const {
-    return x(p) < x_min || x(p) > x_max || y(p) < y_min || y(p) > y_max;
-  }
+  KOKKOS_INLINE_FUNCTION bool operator()(const index_t p) const { return domain.outside(x(p), y(p)); }
 };
 
 // Rows r >= 0 of a lattice column at phase `phase` (in row spacings) that lie within `rows`
@@ -39,7 +36,7 @@ KOKKOS_INLINE_FUNCTION long long rows_entered(double rows, double phase) {
 struct EntryCandidates {
   EntrySide side;
   Kokkos::View<const double*, DeviceType> distance_before, distance_after, inward_speed;  // per cell, the side's
-  real_t x_min, x_max, y_min, y_max;
+  DomainBox domain;
   GridSlab slab;  // ownership of the cells
   DeviceObstacleSet obstacles;
   bool has_obstacles;
@@ -67,14 +64,7 @@ struct EntryCandidates {
       along += (counter_uniform(seed, static_cast<std::uint64_t>(id), 0, 1) - 0.5) * side.column_width;
     }
     depth = depth < 0 ? -depth : depth;  // reflected at the side (and round-off)
-    switch (side.side) {
-      case left_side: x = x_min + real_t(depth); y = y_min + real_t(along); break;
-      case right_side: x = x_max - real_t(depth); y = y_min + real_t(along); break;
-      case bottom_side: x = x_min + real_t(along); y = y_min + real_t(depth); break;
-      default: x = x_min + real_t(along); y = y_max - real_t(depth); break;
-    }
-    x = x < x_min ? x_min : (x > x_max ? x_max : x);
-    y = y < y_min ? y_min : (y > y_max ? y_max : y);
+    domain.point_inside_side(side.side, real_t(along), real_t(depth), x, y);
     if (has_obstacles && obstacles(x, y).distance <= 0) return false;
     const index_t owned_cell = slab.global_cell_along(slab.axis, x, y);
     const index_t owned_begin = slab.axis == 0 ? slab.owned_cell_begin_x : slab.owned_cell_begin_y;
@@ -132,68 +122,14 @@ struct AppendEntering {
   }
 };
 
-// The paper's recycling: particle list(k) has left the domain; it re-enters at a random point of a
-// random inflow cell, in the strip next to the side that the free stream swept clean during the
-// step (depth |v_inf . n| dt, at most one cell), with the free-stream state and particle mass.
-// Its random numbers depend on the seed, its id and the step only.
-struct Recycle {
-  real_t x_min, x_max, y_min, y_max;
-  int num_inflow_sides = 0;
-  int inflow_side[num_sides] = {};
-  real_t inflow_length_end[num_sides] = {};  // cumulative side lengths
-  real_t strip_depth[num_sides] = {};
-  DeviceObstacleSet obstacles;
-  bool has_obstacles = false;
-  GasState free_stream;
-  real_t specific_energy = 0, particle_mass = 0;
-  std::uint64_t seed = 0, step = 0;
-  IndexView list;
-  ParticleState pt;
-
-  KOKKOS_INLINE_FUNCTION void operator()(const index_t k) const {
-    const index_t p = list(k);
-    const std::uint64_t id = static_cast<std::uint64_t>(pt.id(p));
-    real_t x = x_min, y = y_min;
-    constexpr int max_attempts = 16;  // a point inside an obstacle touching the inflow side is drawn again
-    for (int attempt = 0; attempt < max_attempts; ++attempt) {
-      const real_t along = static_cast<real_t>(counter_uniform(seed, id, step, 2 * attempt)) *
-                           inflow_length_end[num_inflow_sides - 1];
-      const real_t depth_fraction = static_cast<real_t>(counter_uniform(seed, id, step, 2 * attempt + 1));
-      int s = 0;
-      while (s < num_inflow_sides - 1 && along >= inflow_length_end[s]) ++s;
-      const real_t t = along - (s > 0 ? inflow_length_end[s - 1] : real_t(0));
-      const real_t depth = depth_fraction * strip_depth[s];
-      switch (inflow_side[s]) {
-        case left_side: x = x_min + depth; y = y_min + t; break;
-        case right_side: x = x_max - depth; y = y_min + t; break;
-        case bottom_side: x = x_min + t; y = y_min + depth; break;
-        default: x = x_min + t; y = y_max - depth; break;
-      }
-      if (!(has_obstacles && obstacles(x, y).distance < 0)) break;
-    }
-    pt.position_x(p) = x < x_min ? x_min : (x > x_max ? x_max : x);
-    pt.position_y(p) = y < y_min ? y_min : (y > y_max ? y_max : y);
-    pt.velocity_x(p) = free_stream.velocity_x;
-    pt.velocity_y(p) = free_stream.velocity_y;
-    pt.grid_velocity_x(p) = free_stream.velocity_x;
-    pt.grid_velocity_y(p) = free_stream.velocity_y;
-    pt.density(p) = free_stream.density;
-    pt.pressure(p) = free_stream.pressure;
-    pt.specific_energy(p) = specific_energy;
-    pt.mass(p) = particle_mass;
-    pt.artificial_viscosity(p) = 0;
-    pt.domain_stretch_x(p) = 1;
-    pt.domain_stretch_y(p) = 1;
-  }
-};
-
-// The inward normal speed of the gas at each cell along a far-field side that this rank owns
-// (the mean of V-bar on the cell's two side nodes), 0 at the cells of other ranks.
-Kokkos::View<double*, Kokkos::HostSpace> far_field_inward_speed(const EntrySide& side, const SlabState& slab_state) {
+// speed(c): the inward normal speed of the gas at each cell c along a far-field side that this
+// rank owns (the mean of V-bar on the cell's two side nodes), 0 at the cells of other ranks.
+void far_field_inward_speed(const EntrySide& side, const SlabState& slab_state,
+                            const Kokkos::View<double*, DeviceType>& speed) {
+  Kokkos::deep_copy(speed, 0.0);
   const GridSlab& slab = slab_state.slab();
   const GridGeometry geo = slab.geometry;
   const NodeFieldsView velocity = slab_state.fields().per_unit_mass;
-  Kokkos::View<double*, DeviceType> speed("far_field_inward_speed", side.cells);
   const int s = side.side;
   const bool along_x = s == bottom_side || s == top_side;
   // The side's global cell and node line across it, and this slab's cells along it.
@@ -201,8 +137,7 @@ Kokkos::View<double*, Kokkos::HostSpace> far_field_inward_speed(const EntrySide&
   const index_t node_across = (s == left_side || s == bottom_side) ? 0 : slab.global_cells(along_x ? 1 : 0);
   const IndexRange2D owned = slab.index_space(Ownership::owned, Entity::cell, Indexing::global);
   const int across_axis = along_x ? 1 : 0;
-  if (cell_across < owned.begin(across_axis) || cell_across >= owned.end(across_axis))
-    return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), speed);
+  if (cell_across < owned.begin(across_axis) || cell_across >= owned.end(across_axis)) return;
   const index_t first = owned.begin(along_x ? 0 : 1), last = owned.end(along_x ? 0 : 1);
   const index_t offset_x = slab.node_offset_x, offset_y = slab.node_offset_y;
   real_t nx, ny;
@@ -217,7 +152,6 @@ Kokkos::View<double*, Kokkos::HostSpace> far_field_inward_speed(const EntrySide&
         }
         speed(c) = sum > 0 ? sum / 2 : 0.0;
       });
-  return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), speed);
 }
 
 }  // namespace
@@ -250,12 +184,55 @@ ConservationTotals totals_of_particles(const ParticleState& pt, const IndexView&
   return totals;
 }
 
-OpenBoundaries::OpenBoundaries(const CaseConfig& config) : config_(config) {
+size_t OpenBoundaries::num_entry_cells(const CaseConfig& config) {
+  if (config.boundaries.particle_supply != ParticleSupply::open) return 0;
+  size_t cells = 0;
+  const auto types = config.boundaries.side_types();
+  for (int s = 0; s < num_sides; ++s)
+    if (types[s] == BoundaryType::inflow || types[s] == BoundaryType::far_field)
+      cells += (s == bottom_side || s == top_side) ? config.domain.cells_x : config.domain.cells_y;
+  return cells;
+}
+
+OpenBoundaries::OpenBoundaries(const CaseConfig& config, const GridSlab& slab)
+    : supply_(config.boundaries.particle_supply),
+      any_open_(config.boundaries.any_open()),
+      random_placement_(config.particles.placement == ParticlePlacement::random),
+      seed_(config.particles.seed),
+      free_stream_(config.boundaries.free_stream) {
+  const index_t per_cell = config.particles.per_cell_x * config.particles.per_cell_y;
+  specific_energy_ = perfect_gas_specific_energy(config.physics.gamma, free_stream_.density, free_stream_.pressure);
+  // As create_initial_particles computes it, so that entering and initial particles weigh the same.
+  particle_mass_ = free_stream_.density * (slab.cell_area() / per_cell);
+  id_base_ = static_cast<particle_id_t>(slab.global_cells_x) * slab.global_cells_y * per_cell;
+  max_columns_ = std::max<particle_id_t>(static_cast<particle_id_t>(slab.global_cells_x) * config.particles.per_cell_x,
+                                         static_cast<particle_id_t>(slab.global_cells_y) * config.particles.per_cell_y);
+  const auto types = config.boundaries.side_types();
+
+  // Recycling: the inflow sides end to end.
+  recycle_.domain = DomainBox(slab);
+  real_t length = 0;
+  for (int s = 0; s < num_sides; ++s) {
+    if (types[s] != BoundaryType::inflow) continue;
+    const bool x_normal = s == left_side || s == right_side;
+    length += x_normal ? (slab.domain_y_max - slab.domain_y_min) : (slab.domain_x_max - slab.domain_x_min);
+    real_t nx, ny;
+    inward_normal(s, nx, ny);
+    const int k = recycle_.num_inflow_sides++;
+    recycle_.inflow_side[k] = s;
+    recycle_.inflow_length_end[k] = length;
+    recycle_.inward_speed[k] = free_stream_.velocity_x * nx + free_stream_.velocity_y * ny;
+    recycle_.cell_depth[k] = x_normal ? slab.geometry.spacing_x : slab.geometry.spacing_y;
+  }
+  recycle_.free_stream = free_stream_;
+  recycle_.specific_energy = specific_energy_;
+  recycle_.particle_mass = particle_mass_;
+  recycle_.seed = seed_;
+
+  // Entering: the lattice outside each inflow and far-field side.
+  if (supply_ != ParticleSupply::open) return;
   const DomainConfig& d = config.domain;
   const double hx = (double(d.x_max) - d.x_min) / d.cells_x, hy = (double(d.y_max) - d.y_min) / d.cells_y;
-  const BoundaryType types[num_sides] = {config.boundaries.left, config.boundaries.right, config.boundaries.bottom,
-                                         config.boundaries.top};
-  if (config.boundaries.particle_supply != ParticleSupply::open) return;
   index_t first_cell = 0;
   for (int s = 0; s < num_sides; ++s) {
     if (types[s] != BoundaryType::inflow && types[s] != BoundaryType::far_field) continue;
@@ -271,12 +248,14 @@ OpenBoundaries::OpenBoundaries(const CaseConfig& config) : config_(config) {
     side.column_width = along_x ? hx / config.particles.per_cell_x : hy / config.particles.per_cell_y;
     real_t nx, ny;
     inward_normal(s, nx, ny);
-    side.free_stream_inward =
-        double(config.boundaries.free_stream.velocity_x) * nx + double(config.boundaries.free_stream.velocity_y) * ny;
+    side.free_stream_inward = double(free_stream_.velocity_x) * nx + double(free_stream_.velocity_y) * ny;
     sides_.push_back(side);
     first_cell += side.cells;
   }
   entry_distance_.assign(static_cast<size_t>(first_cell), 0.0);
+  distance_before_ = Kokkos::View<double*, DeviceType>("entry_distance_before", first_cell);
+  distance_after_ = Kokkos::View<double*, DeviceType>("entry_distance_after", first_cell);
+  inward_speed_ = Kokkos::View<double*, DeviceType>("entry_inward_speed", first_cell);
 }
 
 void OpenBoundaries::restore(const std::vector<double>& entry_distance, const BoundaryFluxes& fluxes) {
@@ -285,84 +264,67 @@ void OpenBoundaries::restore(const std::vector<double>& entry_distance, const Bo
 }
 
 void OpenBoundaries::exchange(ParticleState& pt, const SlabState& slab_state, real_t dt, long step) {
-  const CaseConfig& config = config_;
-  if (!config.boundaries.any_open()) return;
-  const GridSlab& slab = slab_state.slab();
-  const real_t x_min = slab.domain_x_min, x_max = slab.domain_x_max, y_min = slab.domain_y_min,
-               y_max = slab.domain_y_max;
-  const GasState& free_stream = config.boundaries.free_stream;
-  const real_t specific_energy = perfect_gas_specific_energy(config.physics.gamma, free_stream.density,
-                                                             free_stream.pressure);
-  const index_t per_cell = config.particles.per_cell_x * config.particles.per_cell_y;
-  // As create_initial_particles computes it, so that entering and initial particles weigh the same.
-  const real_t particle_mass = free_stream.density * (slab.cell_area() / per_cell);
-  const ObstacleGrid& obstacles = slab_state.obstacles();
-
+  if (!any_open_) return;
   // The particles that have left.
-  const OutsideDomain outside{x_min, x_max, y_min, y_max, pt.position_x, pt.position_y};
+  const OutsideDomain outside{DomainBox(slab_state.slab()), pt.position_x, pt.position_y};
   const IndexView leaving = select_indices("open_side_leaving", 0, pt.count, outside);
   const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
-  const ConservationTotals left = totals_of_particles(pt, leaving, 0, num_leaving);
-  fluxes_.left += left;
-
-  if (config.boundaries.particle_supply == ParticleSupply::recycle) {
-    if (num_leaving == 0) return;
-    Recycle recycle;
-    recycle.x_min = x_min, recycle.x_max = x_max, recycle.y_min = y_min, recycle.y_max = y_max;
-    const BoundaryType types[num_sides] = {config.boundaries.left, config.boundaries.right,
-                                           config.boundaries.bottom, config.boundaries.top};
-    real_t length = 0;
-    for (int s = 0; s < num_sides; ++s) {
-      if (types[s] != BoundaryType::inflow) continue;
-      const bool x_normal = s == left_side || s == right_side;
-      length += x_normal ? (y_max - y_min) : (x_max - x_min);
-      real_t nx, ny;
-      inward_normal(s, nx, ny);
-      const real_t cell_depth = x_normal ? slab.geometry.spacing_x : slab.geometry.spacing_y;
-      const real_t swept = (free_stream.velocity_x * nx + free_stream.velocity_y * ny) * dt;
-      recycle.inflow_side[recycle.num_inflow_sides] = s;
-      recycle.inflow_length_end[recycle.num_inflow_sides] = length;
-      recycle.strip_depth[recycle.num_inflow_sides] = swept > 0 ? std::min(swept, cell_depth) : cell_depth;
-      ++recycle.num_inflow_sides;
-    }
-    recycle.obstacles = obstacles.obstacles;
-    recycle.has_obstacles = !obstacles.obstacles.empty();
-    recycle.free_stream = free_stream;
-    recycle.specific_energy = specific_energy;
-    recycle.particle_mass = particle_mass;
-    recycle.seed = config.particles.seed;
-    recycle.step = static_cast<std::uint64_t>(step);
-    recycle.list = leaving;
-    recycle.pt = pt;
-    Kokkos::parallel_for("recycle", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving), recycle);
-    fluxes_.entered += totals_of_particles(pt, leaving, 0, num_leaving);
+  fluxes_.left += totals_of_particles(pt, leaving, 0, num_leaving);
+  if (supply_ == ParticleSupply::recycle) {
+    recycle(pt, slab_state, leaving, dt, step);
     return;
   }
-
-  // Open: the particles that have left are removed ...
+  // Open: they are removed ...
   if (num_leaving > 0) {
     const HoleFilling plan = plan_hole_filling(pt.count, leaving, outside);
     pt.for_each_field([&](const auto& field) { fill_holes(field, plan.holes, plan.fillers, plan.count); });
     pt.count = plan.staying;
   }
+  // ... and the free stream enters.
+  enter(pt, slab_state, dt);
+}
 
-  // ... and the lattice outside the entering sides moves in by its inward speed x dt.
+void OpenBoundaries::recycle(ParticleState& pt, const SlabState& slab_state, const IndexView& leaving, real_t dt,
+                             long step) {
+  const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
+  if (num_leaving == 0) return;
+  Recycle recycle = recycle_;
+  for (int k = 0; k < recycle.num_inflow_sides; ++k) {
+    const real_t swept = recycle.inward_speed[k] * dt;
+    recycle.strip_depth[k] = swept > 0 ? std::min(swept, recycle.cell_depth[k]) : recycle.cell_depth[k];
+  }
+  recycle.obstacles = slab_state.obstacles().obstacles;
+  recycle.has_obstacles = !slab_state.obstacles().obstacles.empty();
+  recycle.step = static_cast<std::uint64_t>(step);
+  recycle.list = leaving;
+  recycle.pt = pt;
+  Kokkos::parallel_for("recycle", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving), recycle);
+  fluxes_.entered += totals_of_particles(pt, leaving, 0, num_leaving);
+}
+
+void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_t dt) {
+  const GridSlab& slab = slab_state.slab();
+  const ObstacleGrid& obstacles = slab_state.obstacles();
+  auto before = Kokkos::create_mirror_view(distance_before_);
+  auto after = Kokkos::create_mirror_view(distance_after_);
+  auto speed = Kokkos::create_mirror_view(inward_speed_);
   for (const EntrySide& side : sides_) {
-    std::vector<double> speed(static_cast<size_t>(side.cells), side.free_stream_inward > 0 ? side.free_stream_inward : 0);
+    const auto cells = std::make_pair(side.first_cell, side.first_cell + side.cells);
     if (side.far_field) {
-      const auto local = far_field_inward_speed(side, slab_state);
-      for (index_t c = 0; c < side.cells; ++c) speed[c] = local(c);
-      slab_state.context().sum_in_place(speed.data(), static_cast<int>(speed.size()));
+      const auto side_speed = Kokkos::subview(inward_speed_, cells);
+      far_field_inward_speed(side, slab_state, side_speed);
+      Kokkos::deep_copy(Kokkos::subview(speed, cells), side_speed);
+      slab_state.context().sum_in_place(speed.data() + side.first_cell, static_cast<int>(side.cells));
+    } else {
+      for (index_t c = side.first_cell; c < side.first_cell + side.cells; ++c)
+        speed(c) = side.free_stream_inward > 0 ? side.free_stream_inward : 0;
     }
-    Kokkos::View<double*, Kokkos::HostSpace> before("entry_distance_before", side.cells),
-        after("entry_distance_after", side.cells), speed_host("entry_speed", side.cells);
     double largest_advance = 0;
-    for (index_t c = 0; c < side.cells; ++c) {
-      double& distance = entry_distance_[side.first_cell + c];
+    for (index_t c = side.first_cell; c < side.first_cell + side.cells; ++c) {
+      double& distance = entry_distance_[c];
       before(c) = distance;
-      distance += speed[c] * dt;
+      distance += speed(c) * dt;
       after(c) = distance;
-      speed_host(c) = speed[c];
       largest_advance = std::max(largest_advance, after(c) - before(c));
     }
     if (largest_advance <= 0) continue;
@@ -372,25 +334,26 @@ void OpenBoundaries::exchange(ParticleState& pt, const SlabState& slab_state, re
     if (num_candidates > static_cast<long long>(std::numeric_limits<index_t>::max()))
       throw std::runtime_error("open boundaries: the step of " + std::to_string(dt) +
                                " moves the free stream over too many particle rows at once");
+    Kokkos::deep_copy(Kokkos::subview(distance_before_, cells), Kokkos::subview(before, cells));
+    Kokkos::deep_copy(Kokkos::subview(distance_after_, cells), Kokkos::subview(after, cells));
+    Kokkos::deep_copy(Kokkos::subview(inward_speed_, cells), Kokkos::subview(speed, cells));
 
     EntryCandidates candidates;
     candidates.side = side;
-    candidates.distance_before = Kokkos::create_mirror_view_and_copy(MemorySpace(), before);
-    candidates.distance_after = Kokkos::create_mirror_view_and_copy(MemorySpace(), after);
-    candidates.inward_speed = Kokkos::create_mirror_view_and_copy(MemorySpace(), speed_host);
-    candidates.x_min = x_min, candidates.x_max = x_max, candidates.y_min = y_min, candidates.y_max = y_max;
+    candidates.distance_before = Kokkos::subview(distance_before_, cells);
+    candidates.distance_after = Kokkos::subview(distance_after_, cells);
+    candidates.inward_speed = Kokkos::subview(inward_speed_, cells);
+    candidates.domain = DomainBox(slab);
     candidates.slab = slab;
     candidates.obstacles = obstacles.obstacles;
     candidates.has_obstacles = !obstacles.obstacles.empty();
-    candidates.random = config.particles.placement == ParticlePlacement::random;
-    candidates.seed = config.particles.seed;
-    candidates.id_base = static_cast<particle_id_t>(slab.global_cells_x) * slab.global_cells_y * per_cell;
-    candidates.max_columns = std::max<particle_id_t>(
-        static_cast<particle_id_t>(slab.global_cells_x) * config.particles.per_cell_x,
-        static_cast<particle_id_t>(slab.global_cells_y) * config.particles.per_cell_y);
-    candidates.free_stream = free_stream;
-    candidates.specific_energy = specific_energy;
-    candidates.particle_mass = particle_mass;
+    candidates.random = random_placement_;
+    candidates.seed = seed_;
+    candidates.id_base = id_base_;
+    candidates.max_columns = max_columns_;
+    candidates.free_stream = free_stream_;
+    candidates.specific_energy = specific_energy_;
+    candidates.particle_mass = particle_mass_;
 
     const Kokkos::RangePolicy<ExecutionSpace> policy(0, static_cast<index_t>(num_candidates));
     index_t num_entering = 0;

@@ -30,10 +30,13 @@
 // above every initial id and never reused; its random numbers are a function of the seed and that
 // id. Both are independent of the step size, the threads, the ranks and the particle order; each
 // rank creates the entering particles whose cells it owns, in (side, row, column) order.
+#include <cstdint>
 #include <string>
 #include <vector>
 
+#include "boundary_conditions.hpp"
 #include "case_config.hpp"
+#include "counter_random.hpp"
 #include "diagnostics.hpp"
 #include "particles.hpp"
 #include "slab_state.hpp"
@@ -53,10 +56,39 @@ struct EntrySide {
   double free_stream_inward = 0;  // v_inf . (inward normal)
 };
 
+// The paper's recycling, for particles that have left the domain: each re-enters at a random
+// point of a random inflow cell, in the strip next to the side that the free stream swept clean
+// during the step (depth |v_inf . n| dt, at most one cell), with the free-stream state and particle
+// mass. Its random numbers depend on the seed, its id and the step only.
+struct Recycle {
+  DomainBox domain;
+  int num_inflow_sides = 0;
+  int inflow_side[num_sides] = {};
+  real_t inflow_length_end[num_sides] = {};  // cumulative side lengths
+  real_t inward_speed[num_sides] = {};       // v_inf . (inward normal)
+  real_t cell_depth[num_sides] = {};
+  DeviceObstacleSet obstacles;
+  bool has_obstacles = false;
+  GasState free_stream;
+  real_t specific_energy = 0, particle_mass = 0;
+  std::uint64_t seed = 0;
+  // Of the step:
+  real_t strip_depth[num_sides] = {};
+  std::uint64_t step = 0;
+  IndexView list;  // the particles that have left
+  ParticleState pt;
+
+  KOKKOS_INLINE_FUNCTION void operator()(index_t k) const;
+};
+
 class OpenBoundaries {
  public:
   OpenBoundaries() = default;
-  explicit OpenBoundaries(const CaseConfig& config);
+  // For `config`, on any slab of its grid (the slab gives the cell size).
+  OpenBoundaries(const CaseConfig& config, const GridSlab& slab);
+
+  // The cells along the entering sides: the length of entry_distance().
+  static size_t num_entry_cells(const CaseConfig& config);
 
   // After the move: the particles outside the domain are removed (or recycled), and those that
   // the lattice outside the entering sides brought in during the step of size dt are created on
@@ -73,9 +105,24 @@ class OpenBoundaries {
   void restore(const std::vector<double>& entry_distance, const BoundaryFluxes& fluxes);
 
  private:
-  CaseConfig config_;
+  void recycle(ParticleState& particles, const SlabState& slab, const IndexView& leaving, real_t dt, long step);
+  void enter(ParticleState& particles, const SlabState& slab, real_t dt);
+
+  ParticleSupply supply_ = ParticleSupply::open;
+  bool any_open_ = false;
+  bool random_placement_ = false;
+  std::uint64_t seed_ = 0;
+  GasState free_stream_;
+  real_t specific_energy_ = 0;  // of the free stream
+  real_t particle_mass_ = 0;    // of a free-stream particle, as create_initial_particles computes it
+  particle_id_t id_base_ = 0;   // above every initial id
+  particle_id_t max_columns_ = 0;
+  Recycle recycle_;  // its fields fixed for the run
   std::vector<EntrySide> sides_;
   std::vector<double> entry_distance_;
+  // Per entry cell, for one step's kernels (allocated once): the entry distance before and after
+  // the step and the inward speed.
+  Kokkos::View<double*, DeviceType> distance_before_, distance_after_, inward_speed_;
   BoundaryFluxes fluxes_;
 };
 
@@ -83,5 +130,37 @@ class OpenBoundaries {
 // list, those from index `first` on.
 ConservationTotals totals_of_particles(const ParticleState& particles, const IndexView& list, index_t first,
                                        index_t count);
+
+// ---- inline definitions --------------------------------------------------------------------------
+
+KOKKOS_INLINE_FUNCTION void Recycle::operator()(const index_t k) const {
+  const index_t p = list(k);
+  const std::uint64_t id = static_cast<std::uint64_t>(pt.id(p));
+  real_t x = domain.x_min, y = domain.y_min;
+  constexpr int max_attempts = 16;  // a point inside an obstacle touching the inflow side is drawn again
+  for (int attempt = 0; attempt < max_attempts; ++attempt) {
+    const real_t along = static_cast<real_t>(counter_uniform(seed, id, step, 2 * attempt)) *
+                         inflow_length_end[num_inflow_sides - 1];
+    const real_t depth_fraction = static_cast<real_t>(counter_uniform(seed, id, step, 2 * attempt + 1));
+    int s = 0;
+    while (s < num_inflow_sides - 1 && along >= inflow_length_end[s]) ++s;
+    const real_t t = along - (s > 0 ? inflow_length_end[s - 1] : real_t(0));
+    domain.point_inside_side(inflow_side[s], t, depth_fraction * strip_depth[s], x, y);
+    if (!(has_obstacles && obstacles(x, y).distance < 0)) break;
+  }
+  pt.position_x(p) = x;
+  pt.position_y(p) = y;
+  pt.velocity_x(p) = free_stream.velocity_x;
+  pt.velocity_y(p) = free_stream.velocity_y;
+  pt.grid_velocity_x(p) = free_stream.velocity_x;
+  pt.grid_velocity_y(p) = free_stream.velocity_y;
+  pt.density(p) = free_stream.density;
+  pt.pressure(p) = free_stream.pressure;
+  pt.specific_energy(p) = specific_energy;
+  pt.mass(p) = particle_mass;
+  pt.artificial_viscosity(p) = 0;
+  pt.domain_stretch_x(p) = 1;
+  pt.domain_stretch_y(p) = 1;
+}
 
 }  // namespace mpmflow

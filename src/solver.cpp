@@ -60,7 +60,7 @@ Solver::Solver(const CaseConfig& config, const ParallelContext& context, const S
     : Solver(config, std::make_unique<SlabState>(config, context, decomposition), std::move(particles)) {}
 
 Solver::Solver(const CaseConfig& config, std::unique_ptr<SlabState> slab_state, ParticleState particles)
-    : config_(config), slab_(std::move(slab_state)), particles_(std::move(particles)), open_sides_(config) {
+    : config_(config), slab_(std::move(slab_state)), particles_(std::move(particles)), open_sides_(config, slab_->slab()) {
   transfers_ = make_transfer_kernels(config_, slab_->geometry(), slab_->fields());
   settings_.fused_kernels = config_.numerics.fused_kernels;
   settings_.reorder_interval = config_.numerics.reorder_interval;

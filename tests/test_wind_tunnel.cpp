@@ -261,7 +261,7 @@ TEST(Recycling, ReentersInTheInflowStripWithTheFreeStreamStateIndependentOfOrder
     Kokkos::deep_copy(view, host);
   });
   const real_t dt = 0.02;  // the free stream (u = 3) sweeps a strip 0.06 deep: less than a cell (0.1)
-  OpenBoundaries open_forward(config), open_backward(config);
+  OpenBoundaries open_forward(config, slab), open_backward(config, slab);
   push_through_outflow(slab_state, open_forward, forward, dt, 7);
   push_through_outflow(slab_state, open_backward, backward, dt, 7);
   EXPECT_EQ(forward.count, n);  // recycled, not removed
@@ -287,7 +287,7 @@ TEST(Recycling, ReentersInTheInflowStripWithTheFreeStreamStateIndependentOfOrder
   EXPECT_NEAR(open_forward.fluxes().entered.mass, 8 * 1.4, 1e-9);
   // Another step, other positions.
   ParticleState later = create_initial_particles(config, slab);
-  OpenBoundaries open_later(config);
+  OpenBoundaries open_later(config, slab);
   push_through_outflow(slab_state, open_later, later, dt, 8);
   EXPECT_NE(positions_by_id(later), a);
 }
@@ -307,7 +307,7 @@ EnteringRun enter_empty_tunnel(const CaseConfig& config, const std::vector<index
   for (size_t k = 0; k + 1 < cuts.size(); ++k) {
     const GridSlab slab = make_grid_slab(config.domain, 1, cuts[k], cuts[k + 1]);
     const SlabState slab_state(config, slab);
-    OpenBoundaries open_sides(config);
+    OpenBoundaries open_sides(config, slab);
     for (int step = 1; step <= steps; ++step) {
       ParticleState pt(0);
       const real_t dt = real_t(0.004 + 0.003 * (step % 3));  // 0.4 to 1 of a row spacing (0.05 / 3)
@@ -388,7 +388,7 @@ TEST(OpenSides, ParticlesLeavingAreRemovedAndCounted) {
   Kokkos::deep_copy(pt.position_x, x);
   Kokkos::deep_copy(pt.grid_velocity_x, real_t(1));
   Kokkos::deep_copy(pt.grid_velocity_y, real_t(0));
-  OpenBoundaries open_sides(config);
+  OpenBoundaries open_sides(config, slab);
   const real_t dt = 0.02;
   move_particles(slab_state.particle_boundaries(), pt, dt);
   open_sides.exchange(pt, slab_state, dt, 1);
