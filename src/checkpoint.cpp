@@ -116,15 +116,15 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
       value = h5::read_attribute(file, (std::string("initial_") + name).c_str());
     });
     clock.node_mass_threshold = h5::read_attribute(file, "node_mass_threshold");
+    const int written_ranks = static_cast<int>(h5::read_attribute(file, "num_ranks"));
     {
       // Rank-major rows of every flux (BoundaryFluxes::for_each_flux order).
       hsize_t width = 0;
       clock.fluxes.for_each_flux([&](const std::string&, double) { ++width; });
-      const int written_ranks_of_fluxes = static_cast<int>(h5::read_attribute(file, "num_ranks"));
-      const bool same_ranks = written_ranks_of_fluxes == context.size();
+      const bool same_ranks = written_ranks == context.size();
       std::vector<double> rows;
       if (same_ranks) rows = h5::read_rows<double>(file, "open_side_fluxes", width * context.rank(), width, context);
-      else rows = h5::read_rows<double>(file, "open_side_fluxes", 0, width * written_ranks_of_fluxes, context);
+      else rows = h5::read_rows<double>(file, "open_side_fluxes", 0, width * written_ranks, context);
       clock.fluxes = BoundaryFluxes{};
       if (same_ranks || context.is_root()) {
         size_t k = 0;
@@ -137,7 +137,6 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
     const size_t num_distances = OpenBoundaries::num_entry_cells(config);
     if (num_distances > 0)
       clock.entry_distance = h5::read_rows<double>(file, "entry_distance", 0, num_distances, context);
-    const int written_ranks = static_cast<int>(h5::read_attribute(file, "num_ranks"));
     const int axis = static_cast<int>(h5::read_attribute(file, "decomposition_axis"));
     const auto counts = h5::read_rows<long long>(file, "particles_per_rank", 0, written_ranks, context);
     const auto slab_begin = h5::read_rows<long long>(file, "slab_begin", 0, written_ranks + 1, context);

@@ -290,17 +290,15 @@ def region(args):
     density, per_cell = float(np.mean(densities)), float(np.mean(per_cells))
     print(f"mean of the last {len(files)} outputs: mass per area {density:.4f}, particles per cell {per_cell:.3f}")
     failed = False
-    if args.density is not None:
-        error = abs(density - args.density) / args.density
-        print(f"  mass per area against {args.density}: error {100 * error:.2f}%")
-        if args.max_density_error is not None and error > args.max_density_error:
-            print(f"FAIL: mass per area error {100 * error:.2f}% > {100 * args.max_density_error:.2f}%")
-            failed = True
-    if args.per_cell is not None:
-        error = abs(per_cell - args.per_cell) / args.per_cell
-        print(f"  particles per cell against {args.per_cell}: error {100 * error:.2f}%")
-        if args.max_per_cell_error is not None and error > args.max_per_cell_error:
-            print(f"FAIL: particles per cell error {100 * error:.2f}% > {100 * args.max_per_cell_error:.2f}%")
+    for label, measured, expected, max_error in (("mass per area", density, args.density, args.max_density_error),
+                                                 ("particles per cell", per_cell, args.per_cell,
+                                                  args.max_per_cell_error)):
+        if expected is None:
+            continue
+        error = abs(measured - expected) / expected
+        print(f"  {label} against {expected}: error {100 * error:.2f}%")
+        if max_error is not None and error > max_error:
+            print(f"FAIL: {label} error {100 * error:.2f}% > {100 * max_error:.2f}%")
             failed = True
     return 1 if failed else 0
 
