@@ -28,53 +28,89 @@ IndexRange2D within_domain(const GridSlab& slab, const IndexRange2D& line) {
           std::max(line.begin_y, domain.begin_y), std::min(line.end_y, domain.end_y)};
 }
 
-// (Free functions rather than private members: CUDA forbids device lambdas in private members.)
-void apply_open_sides(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
-                      const GasState& free_stream, const NodeFieldsView& momentum, int column_x,
-                      const NodeFieldsView& state, bool with_force) {
+// Whether gas outside the side presses on it at the free-stream pressure: outflow and far field.
+bool pressure_side(BoundaryType type) { return type == BoundaryType::outflow || type == BoundaryType::far_field; }
+
+// The free-stream pressure on the outflow and far-field sides, as the gas outside acts on the
+// nodes of the side (free functions rather than private members: CUDA forbids device lambdas in
+// private members).
+//
+// The gas outside is a continuum at the free-stream state. Its stress contributes
+//   f_i = -\int_outside sigma grad N_i dA = -p_inf n \int_side N_i ds
+// to the side's nodes (one node spacing per node, half of one at the side's ends) and nothing to
+// the ghost nodes beyond, whose shape functions vanish on the side. Its mass contributes inertia:
+// a side node's dual cell lies half outside (three quarters at a corner of two such sides), and
+// the gas there, moving with the node, takes its share of the node's force. The node's
+// acceleration is then f / (m + m_outside), with f the particles' force plus the traction; the
+// velocity the particles give the node is kept (the gas outside moves with it). A side node whose
+// particles have thinned out (gas leaving along a side parallel to the flow) thus still feels the
+// traction, and is pushed inwards until the gas fills the side again, by an acceleration no larger
+// than that of a node holding the gas outside alone. (With the traction scaled by the node's
+// share of a full node's mass instead, a thinning side lost ever more traction and drained
+// the tunnel; with the traction whole on the particles' mass alone, nearly empty nodes threw
+// particles into the domain.)
+void apply_side_pressure(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
+                         const GasState& free_stream, const NodeFieldsView& state) {
+  const GridGeometry& geo = slab.geometry;
+  // Per axis: whether the domain's low and high sides are pressure sides.
+  const bool left = pressure_side(side_type[left_side]), right = pressure_side(side_type[right_side]);
+  const bool bottom = pressure_side(side_type[bottom_side]), top = pressure_side(side_type[top_side]);
+  const index_t first_x = slab.local_node_x(0), last_x = slab.local_node_x(slab.global_cells_x);
+  const index_t first_y = slab.local_node_y(0), last_y = slab.local_node_y(slab.global_cells_y);
+  const real_t hx = geo.spacing_x, hy = geo.spacing_y, p_inf = free_stream.pressure, rho_inf = free_stream.density;
+  for (int s = 0; s < num_sides; ++s) {
+    if (!pressure_side(side_type[s])) continue;
+    const Side side = static_cast<Side>(s);
+    IndexRange2D line = within_domain(slab, slab.boundary_node_line(side, 0));
+    // A corner node shared with an earlier pressure side (left and right come before bottom and
+    // top) is that side's: each node is handled once.
+    if (side == bottom_side || side == top_side) {
+      if (left) line.begin_x = std::max(line.begin_x, first_x + 1);
+      if (right) line.end_x = std::min(line.end_x, last_x);
+    }
+    for_nodes("side_pressure", geo, line, KOKKOS_LAMBDA(const index_t node, const index_t i, const index_t j) {
+      // The node's dual cell [x_i - hx/2, x_i + hx/2] x [...]: its extent within the gas (beyond
+      // a slip wall or an inflow side there is none) and within the domain.
+      const bool at_left = i == first_x, at_right = i == last_x, at_bottom = j == first_y, at_top = j == last_y;
+      const real_t gas_x = hx - ((at_left && !left) || (at_right && !right) ? hx / 2 : real_t(0));
+      const real_t gas_y = hy - ((at_bottom && !bottom) || (at_top && !top) ? hy / 2 : real_t(0));
+      const real_t inside_x = gas_x - ((at_left && left) || (at_right && right) ? hx / 2 : real_t(0));
+      const real_t inside_y = gas_y - ((at_bottom && bottom) || (at_top && top) ? hy / 2 : real_t(0));
+      // Traction: the length of the node's dual cell along each pressure side it lies on.
+      real_t fx = state(node, GridFields::force_x), fy = state(node, GridFields::force_y);
+      if (at_left && left) fx += p_inf * inside_y;
+      if (at_right && right) fx -= p_inf * inside_y;
+      if (at_bottom && bottom) fy += p_inf * inside_x;
+      if (at_top && top) fy -= p_inf * inside_x;
+      const real_t outside_mass = rho_inf * (gas_x * gas_y - inside_x * inside_y);
+      const real_t m = state(node, GridFields::mass);
+      const real_t inertia_share = m / (m + outside_mass);
+      state(node, GridFields::force_x) = fx * inertia_share;
+      state(node, GridFields::force_y) = fy * inertia_share;
+    });
+  }
+}
+
+// Inflow sides: the node velocity is the free stream on the side's node line and the ghost lines
+// beyond it, and no force acts there.
+void apply_inflow_sides(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
+                        const GasState& free_stream, const NodeFieldsView& momentum, int column_x,
+                        const NodeFieldsView& state, bool with_force) {
   const GridGeometry& geo = slab.geometry;
   const real_t vx = free_stream.velocity_x, vy = free_stream.velocity_y;
   for (int s = 0; s < num_sides; ++s) {
-    const Side side = static_cast<Side>(s);
-    if (side_type[s] == BoundaryType::inflow) {
-      for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer)
-        for_nodes("inflow_nodes", geo, slab.boundary_node_line(side, layer),
-                  KOKKOS_LAMBDA(const index_t node, index_t, index_t) {
-                    const real_t m = state(node, GridFields::mass);
-                    momentum(node, column_x) = m * vx;
-                    momentum(node, column_x + 1) = m * vy;
-                    if (with_force) {
-                      state(node, GridFields::force_x) = 0;
-                      state(node, GridFields::force_y) = 0;
-                    }
-                  });
-    } else if ((side_type[s] == BoundaryType::outflow || side_type[s] == BoundaryType::far_field) && with_force) {
-      // Traction of the free-stream pressure: -p_inf n times the integral of N_i along the side,
-      // one node spacing per node and half of one at the side's ends.
-      const IndexRange2D line = within_domain(slab, slab.boundary_node_line(side, 0));
-      const bool column = side == left_side || side == right_side;  // the side is a node column
-      const real_t spacing = column ? geo.spacing_y : geo.spacing_x;
-      // Local indices along the side of its first and last node (global nodes 0 and cells).
-      const index_t first = column ? slab.local_node_y(0) : slab.local_node_x(0);
-      const index_t last = column ? slab.local_node_y(slab.global_cells_y) : slab.local_node_x(slab.global_cells_x);
-      const real_t outward = (side == left_side || side == bottom_side) ? real_t(-1) : real_t(1);
-      const real_t push = -free_stream.pressure * outward;
-      // A node on the side holds free_stream density x length x half a cell of mass when the gas
-      // beside it is the free stream. Where particles have thinned out (gas leaving along a side
-      // parallel to the flow), the node gets the traction in proportion to the mass it holds, so
-      // the acceleration the traction causes never exceeds that of a full node; applied whole to
-      // a nearly empty node it would throw the few particles there into the domain.
-      const real_t normal_spacing = column ? geo.spacing_x : geo.spacing_y;
-      const real_t full_mass_per_length = free_stream.density * normal_spacing / 2;
-      for_nodes("outflow_pressure", geo, line, KOKKOS_LAMBDA(const index_t node, const index_t i, const index_t j) {
-        const index_t k = column ? j : i;
-        const real_t length = (k == first || k == last) ? spacing / 2 : spacing;
-        const real_t full_mass = full_mass_per_length * length;
-        const real_t mass = state(node, GridFields::mass);
-        const real_t share = mass < full_mass ? mass / full_mass : real_t(1);
-        state(node, column ? GridFields::force_x : GridFields::force_y) += push * length * share;
-      });
-    }
+    if (side_type[s] != BoundaryType::inflow) continue;
+    for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer)
+      for_nodes("inflow_nodes", geo, slab.boundary_node_line(static_cast<Side>(s), layer),
+                KOKKOS_LAMBDA(const index_t node, index_t, index_t) {
+                  const real_t m = state(node, GridFields::mass);
+                  momentum(node, column_x) = m * vx;
+                  momentum(node, column_x + 1) = m * vy;
+                  if (with_force) {
+                    state(node, GridFields::force_x) = 0;
+                    state(node, GridFields::force_y) = 0;
+                  }
+                });
   }
 }
 
@@ -117,7 +153,8 @@ GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const G
       obstacles_(obstacles) {}
 
 void GridBoundaryConditions::apply_to_momentum_and_force(const NodeFieldsView& state) const {
-  apply_open_sides(slab_, side_type_, free_stream_, state, GridFields::momentum_x, state, /*with_force=*/true);
+  apply_side_pressure(slab_, side_type_, free_stream_, state);
+  apply_inflow_sides(slab_, side_type_, free_stream_, state, GridFields::momentum_x, state, /*with_force=*/true);
   apply_slip_walls(slab_, side_type_, state, GridFields::momentum_x);
   apply_slip_walls(slab_, side_type_, state, GridFields::force_x);
   remove_inward_component(obstacles_, state, GridFields::momentum_x);
@@ -126,7 +163,7 @@ void GridBoundaryConditions::apply_to_momentum_and_force(const NodeFieldsView& s
 
 void GridBoundaryConditions::apply_to_momentum(const NodeFieldsView& momentum, int column_x,
                                                const NodeFieldsView& state) const {
-  apply_open_sides(slab_, side_type_, free_stream_, momentum, column_x, state, /*with_force=*/false);
+  apply_inflow_sides(slab_, side_type_, free_stream_, momentum, column_x, state, /*with_force=*/false);
   apply_slip_walls(slab_, side_type_, momentum, column_x);
   remove_inward_component(obstacles_, momentum, column_x);
 }

@@ -122,8 +122,9 @@ struct AppendEntering {
   }
 };
 
-// speed(c): the inward normal speed of the gas at each cell c along a far-field side that this
-// rank owns (the mean of V-bar on the cell's two side nodes), 0 at the cells of other ranks.
+// speed(c): the inward normal velocity of the gas at each cell c along a far-field side that this
+// rank owns (the mean of V-bar on the cell's two side nodes; negative where the gas leaves), 0 at
+// the cells of other ranks.
 void far_field_inward_speed(const EntrySide& side, const SlabState& slab_state,
                             const Kokkos::View<double*, DeviceType>& speed) {
   Kokkos::deep_copy(speed, 0.0);
@@ -150,8 +151,45 @@ void far_field_inward_speed(const EntrySide& side, const SlabState& slab_state,
           const index_t node = geo.node_index(gi - offset_x, gj - offset_y);
           sum += velocity(node, GridFields::velocity_x) * nx + velocity(node, GridFields::velocity_y) * ny;
         }
-        speed(c) = sum > 0 ? sum / 2 : 0.0;
+        speed(c) = sum / 2;
       });
+}
+
+// The volume m / rho of this rank's particles in the strip one cell deep along a far-field side,
+// per cell along it, in units of the cell's area / 2^32. Integers: their sums over particles and
+// ranks are exact in any order, so the decisions made from them do not depend on the threads,
+// the ranks or the particle order.
+constexpr double strip_volume_unit = 1.0 / 4294967296.0;  // of a cell's area
+
+void far_field_strip_volume(const EntrySide& side, const ParticleState& pt, const GridSlab& slab,
+                            const Kokkos::View<long long*, DeviceType>& volume) {
+  Kokkos::deep_copy(volume, 0LL);
+  const DomainBox domain(slab);
+  const int s = side.side;
+  const bool along_x = s == bottom_side || s == top_side;
+  const real_t depth_of_strip = along_x ? slab.geometry.spacing_y : slab.geometry.spacing_x;
+  const real_t width = along_x ? slab.geometry.spacing_x : slab.geometry.spacing_y;
+  const double units_per_volume = 1.0 / (double(slab.cell_area()) * strip_volume_unit);
+  const index_t cells = side.cells;
+  const RealView x = pt.position_x, y = pt.position_y, mass = pt.mass, density = pt.density;
+  auto scatter = Kokkos::Experimental::create_scatter_view(volume);
+  Kokkos::parallel_for(
+      "far_field_strip_volume", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
+        real_t depth, along;
+        switch (s) {
+          case left_side: depth = x(p) - domain.x_min; along = y(p) - domain.y_min; break;
+          case right_side: depth = domain.x_max - x(p); along = y(p) - domain.y_min; break;
+          case bottom_side: depth = y(p) - domain.y_min; along = x(p) - domain.x_min; break;
+          default: depth = domain.y_max - y(p); along = x(p) - domain.x_min; break;
+        }
+        if (!(depth >= 0 && depth < depth_of_strip)) return;
+        index_t c = static_cast<index_t>(along / width);
+        c = c < 0 ? 0 : (c >= cells ? cells - 1 : c);
+        auto access = scatter.access();
+        access(c) += static_cast<long long>(double(mass(p)) / double(density(p)) * units_per_volume + 0.5);
+      });
+  Kokkos::View<long long*, DeviceType> target = volume;  // (contribute takes the View by non-const reference)
+  Kokkos::Experimental::contribute(target, scatter);
 }
 
 }  // namespace
@@ -256,6 +294,10 @@ OpenBoundaries::OpenBoundaries(const CaseConfig& config, const GridSlab& slab)
   distance_before_ = Kokkos::View<double*, DeviceType>("entry_distance_before", first_cell);
   distance_after_ = Kokkos::View<double*, DeviceType>("entry_distance_after", first_cell);
   inward_speed_ = Kokkos::View<double*, DeviceType>("entry_inward_speed", first_cell);
+  index_t longest_far_field = 0;
+  for (const EntrySide& side : sides_)
+    if (side.far_field) longest_far_field = std::max(longest_far_field, side.cells);
+  strip_volume_ = Kokkos::View<long long*, DeviceType>("far_field_strip_volume", longest_far_field);
 }
 
 void OpenBoundaries::restore(const std::vector<double>& entry_distance, const BoundaryFluxes& fluxes) {
@@ -310,20 +352,35 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
   auto speed = Kokkos::create_mirror_view(inward_speed_);
   for (const EntrySide& side : sides_) {
     const auto cells = std::make_pair(side.first_cell, side.first_cell + side.cells);
+    // The gap each cell's strip next to a far-field side needs filled (in lengths along the normal).
+    std::vector<double> fill(static_cast<size_t>(side.cells), 0.0);
     if (side.far_field) {
       const auto side_speed = Kokkos::subview(inward_speed_, cells);
       far_field_inward_speed(side, slab_state, side_speed);
       Kokkos::deep_copy(Kokkos::subview(speed, cells), side_speed);
       slab_state.context().sum_in_place(speed.data() + side.first_cell, static_cast<int>(side.cells));
+      far_field_strip_volume(side, pt, slab, strip_volume_);
+      auto volume = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), strip_volume_);
+      slab_state.context().sum_in_place(volume.data(), static_cast<int>(side.cells));
+      const bool along_x = side.side == bottom_side || side.side == top_side;
+      const double depth_of_strip = along_x ? slab.geometry.spacing_y : slab.geometry.spacing_x;
+      for (index_t c = 0; c < side.cells; ++c) {
+        // Where the gas does not leave, the free stream outside fills what the particles leave
+        // empty of the strip (see the header).
+        const double empty = 1.0 - double(volume(c)) * strip_volume_unit;
+        if (speed(side.first_cell + c) >= 0 && empty > 0) fill[static_cast<size_t>(c)] = empty * depth_of_strip;
+      }
     } else {
-      for (index_t c = side.first_cell; c < side.first_cell + side.cells; ++c)
-        speed(c) = side.free_stream_inward > 0 ? side.free_stream_inward : 0;
+      for (index_t c = side.first_cell; c < side.first_cell + side.cells; ++c) speed(c) = side.free_stream_inward;
     }
     double largest_advance = 0;
     for (index_t c = side.first_cell; c < side.first_cell + side.cells; ++c) {
+      if (speed(c) < 0) speed(c) = 0;  // where the gas leaves, the lattice waits
       double& distance = entry_distance_[c];
       before(c) = distance;
-      distance += speed(c) * dt;
+      // The lattice moves in with the gas, or further where that does not fill the strip (the gas
+      // that moved in during the step is part of the strip's emptiness measured before it enters).
+      distance += std::max(speed(c) * dt, fill[static_cast<size_t>(c - side.first_cell)]);
       after(c) = distance;
       largest_advance = std::max(largest_advance, after(c) - before(c));
     }

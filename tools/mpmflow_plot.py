@@ -257,10 +257,13 @@ def bow_shock(args):
     if not standoffs:
         print("bow-shock: no measurement")
         return 1
-    standoff, pitot = float(np.mean(standoffs)), float(np.mean(pitots))
+    # Medians over the outputs: at coarse resolutions a few particles held at the stagnation point
+    # reach two to four times the nose pressure in single outputs (seen at 100 x 50 cells, 9 per
+    # cell: 27 to 51 against 12), and one such output moved the mean by up to 30 %.
+    standoff, pitot = float(np.median(standoffs)), float(np.median(pitots))
     standoff_error = abs(standoff - expected_standoff) / expected_standoff
     pitot_error = abs(pitot - expected_pitot) / expected_pitot
-    print(f"mean of the last {len(standoffs)} outputs:")
+    print(f"median of the last {len(standoffs)} outputs:")
     print(f"  stand-off distance {standoff:.4f}  (Billig {expected_standoff:.4f}, error {100 * standoff_error:.1f}%)")
     print(f"  nose pressure      {pitot:.3f}  (Rayleigh pitot {expected_pitot:.3f}, error {100 * pitot_error:.1f}%)")
     failed = False
