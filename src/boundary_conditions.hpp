@@ -42,9 +42,10 @@ struct DomainBox {
 // On the grid, per side (the side's node line and the ghost lines beyond it, which GIMP stencils
 // reach):
 // - inflow: the node velocity is the free stream, momentum = node mass x v_inf, no force;
-// - outflow and far field: nothing imposed on the velocity; the free-stream pressure acts on the side as a
-//   traction, f_i -= p_inf n \int_side N_i ds, the pressure of the gas outside that the particles
-//   inside do not see (a free stream at rest is then in equilibrium);
+// - outflow and far field: nothing imposed on the velocity; the gas outside, which the particles
+//   do not represent, acts at the free-stream state: its pressure as a traction on the side,
+//   f_i -= p_inf n \int_side N_i ds (a free stream at rest is then in equilibrium), its mass as
+//   inertia of the side nodes, whose acceleration is f / (m + m_outside);
 // - slip wall: the wall-normal component is removed.
 // Then, on nodes inside an obstacle, the inward normal component is removed (eqs. 21-22).
 class GridBoundaryConditions {

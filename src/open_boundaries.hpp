@@ -14,8 +14,12 @@
 // rows, each particle the case's free-stream particle mass. The lattice moves towards the side at
 // the inward normal speed: the free stream's on an inflow side; on a far-field side, in each cell
 // along it, that of the gas at the side (the grid velocity V-bar of the step on its two side
-// nodes) where it points inwards, and nothing where it points outwards. entry_distance(cell)
-// accumulates how far the lattice has moved. Row r of column i lies (r + phase_i) row spacings
+// nodes) where it points inwards, and nothing where it points outwards; where it does not point
+// outwards, the lattice moves in further if that does not fill the strip one cell deep along the
+// side: by the strip's area not covered by its particles' volumes m / rho, per unit width (the
+// free stream outside fills the gaps the particles leave at the side; the volumes are summed in
+// integer units, so that the sum, and what enters, does not depend on the particle order, the
+// threads or the ranks). entry_distance(cell) accumulates how far the lattice has moved. Row r of column i lies (r + phase_i) row spacings
 // outside, phase_i = (i + 1/2) / columns, and enters once entry_distance passes it: placed that
 // far inside (regular placement), or jittered uniformly within its own row spacing and column
 // width, reflected at the side (random placement), with the free-stream density, pressure and
