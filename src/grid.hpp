@@ -117,9 +117,18 @@ struct GridFields {
     remap_velocity_y,
     num_per_unit_mass_columns
   };
-  // The columns of a projection of the particles' mass and momentum (grid output): the first
-  // three of `state`.
-  static constexpr int num_projection_columns = momentum_y + 1;
+  // The columns of the projection of the particles' state for grid output: mass and momentum
+  // (the first three of `state`), and mass times density, pressure and specific internal energy
+  // (divided by the mass: their mass-weighted averages on the node).
+  enum ProjectionColumn : int {
+    projected_mass = 0,
+    projected_momentum_x,
+    projected_momentum_y,
+    projected_mass_density,
+    projected_mass_pressure,
+    projected_mass_energy,
+    num_projection_columns
+  };
 
   NodeFieldsView state;
   NodeFieldsView momentum_remap;

@@ -1,5 +1,8 @@
 #include "halo_exchange.hpp"
 
+#include <stdexcept>
+#include <string>
+
 namespace mpmflow {
 #ifdef MPMFLOW_HAVE_MPI
 namespace {
@@ -36,7 +39,7 @@ void add_unpacked(const PackedNodes& lines, const NodeFieldsView& fields, int fi
 #endif
 
 HaloExchange::HaloExchange(const GridSlab& slab, const ParallelContext& context, int max_components)
-    : geometry_(slab.geometry), context_(context) {
+    : geometry_(slab.geometry), context_(context), max_components_(max_components) {
   auto connect = [&](Neighbour& neighbour, int direction, const char* send_label, const char* receive_label) {
     // A slab run alone (a single-process solver on part of the grid) has no one to share with.
     const int rank = context.rank() + direction;
@@ -56,6 +59,9 @@ HaloExchange::HaloExchange(const GridSlab& slab, const ParallelContext& context,
 
 void HaloExchange::sum_shared_nodes(const NodeFieldsView& fields, int first_component, int num_components) const {
   if (!active()) return;
+  if (num_components > max_components_)
+    throw std::logic_error("halo exchange: " + std::to_string(num_components) + " node columns asked for, buffers for " +
+                           std::to_string(max_components_));
 #ifdef MPMFLOW_HAVE_MPI
   const Neighbour* neighbours[2] = {&lower_, &upper_};
   for (const Neighbour* n : neighbours)

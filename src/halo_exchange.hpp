@@ -37,6 +37,7 @@ class HaloExchange {
   };
   GridGeometry geometry_;
   ParallelContext context_;
+  int max_components_ = 0;
   Neighbour lower_, upper_;
 };
 

@@ -111,6 +111,35 @@ void write_block(hid_t parent, const char* name, const std::vector<hsize_t>& glo
     throw std::runtime_error(std::string("HDF5: write dataset ") + name + " failed");
 }
 
+// Dataset `name` of `global_rows` rows of `components` values (1: a 1D dataset), holding a 2D
+// array of rows `row_length` long flattened row after row; this rank writes `num_rows` runs of
+// `run_length` rows from row `first`, one run every `row_length` rows (a rectangle of the 2D
+// array, x fastest), from `data`, the runs one after another. Collective.
+template <class T>
+void write_rectangle_rows(hid_t parent, const char* name, hsize_t global_rows, hsize_t components, hsize_t first,
+                          hsize_t run_length, hsize_t num_rows, hsize_t row_length, const T* data,
+                          const ParallelContext& context) {
+  const int rank = components > 1 ? 2 : 1;
+  const hsize_t global_dims[2] = {global_rows, components};
+  Handle file_space(H5Screate_simple(rank, global_dims, nullptr), H5Sclose, std::string("dataspace of ") + name);
+  Handle set(H5Dcreate2(parent, name, type_of<T>(), file_space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose,
+             std::string("create dataset ") + name);
+  const hsize_t elements[2] = {run_length * num_rows, components};
+  Handle memory_space(H5Screate_simple(rank, elements, nullptr), H5Sclose, "memory dataspace");
+  if (elements[0] == 0) {
+    H5Sselect_none(file_space);
+    H5Sselect_none(memory_space);
+  } else {
+    const hsize_t start[2] = {first, 0}, stride[2] = {row_length, 1}, count[2] = {num_rows, 1},
+                  block[2] = {run_length, components};
+    if (H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, stride, count, block) < 0)
+      throw std::runtime_error(std::string("HDF5: select the rows of dataset ") + name + " failed");
+  }
+  Handle dxpl(transfer(context), H5Pclose, "transfer list");
+  if (H5Dwrite(set, type_of<T>(), memory_space, file_space, dxpl, data) < 0)
+    throw std::runtime_error(std::string("HDF5: write dataset ") + name + " failed");
+}
+
 // A dataset written whole by every rank alike (small: attributes-like arrays).
 template <class T>
 void write_replicated(hid_t parent, const char* name, const std::vector<T>& values, const ParallelContext& context) {

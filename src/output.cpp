@@ -58,32 +58,43 @@ namespace {
 
 using h5::Handle;
 
-// The particle fields of a snapshot, each one dataset of /particles and one XDMF attribute:
-// f(name, view) for each (the positions are the (N, 2) geometry, written apart).
+// The scalar particle fields of a snapshot, each one dataset of /particles and one XDMF
+// attribute: f(name, view) for each. The positions (the (N, 2) geometry), the velocity (an (N, 3)
+// vector, z = 0, as ParaView's glyphs and stream tracers want) and the vertex connectivity are
+// written apart.
 template <class F>
 void for_each_snapshot_particle_field(const ParticleState& pt, F&& f) {
-  f("density", pt.density), f("pressure", pt.pressure), f("velocity_x", pt.velocity_x);
-  f("velocity_y", pt.velocity_y), f("specific_energy", pt.specific_energy), f("mass", pt.mass), f("id", pt.id);
+  f("density", pt.density), f("pressure", pt.pressure), f("specific_energy", pt.specific_energy);
+  f("mass", pt.mass), f("id", pt.id);
 }
 
-// One node of the grid output: the particles' mass and momentum projected on it, the node's share
-// of the domain's area (a quarter cell per adjacent cell) and the mass below which it is empty.
+// One node of the grid output: the particles' state projected on it (GridFields::ProjectionColumn),
+// the mass below which it is empty, and gamma.
 struct NodeSample {
-  real_t mass, momentum_x, momentum_y, area, mass_threshold;
+  real_t mass, momentum_x, momentum_y, mass_density, mass_pressure, mass_energy, mass_threshold, gamma;
+  bool empty() const { return !(mass > mass_threshold); }
+  // The mass-weighted average on the node of a particle field whose column holds mass x field.
+  real_t average(real_t mass_times_field) const { return empty() ? real_t(0) : mass_times_field / mass; }
 };
 
-// The grid fields of a snapshot, each one dataset of /grid and one XDMF attribute.
+// The scalar grid fields of a snapshot, each one dataset of /grid and one XDMF attribute; the
+// velocity vector is written apart.
 struct GridSnapshotField {
   const char* name;
   real_t (*value)(const NodeSample&);
 };
 constexpr GridSnapshotField grid_snapshot_fields[] = {
-    {"node_density", [](const NodeSample& n) { return n.mass / n.area; }},
-    {"node_mass", [](const NodeSample& n) { return n.mass; }},
-    {"node_velocity_x",
-     [](const NodeSample& n) { return n.mass > n.mass_threshold ? n.momentum_x / n.mass : real_t(0); }},
-    {"node_velocity_y",
-     [](const NodeSample& n) { return n.mass > n.mass_threshold ? n.momentum_y / n.mass : real_t(0); }},
+    {"density", [](const NodeSample& n) { return n.average(n.mass_density); }},
+    {"pressure", [](const NodeSample& n) { return n.average(n.mass_pressure); }},
+    {"specific_energy", [](const NodeSample& n) { return n.average(n.mass_energy); }},
+    {"mach_number",
+     [](const NodeSample& n) {
+       const real_t rho = n.average(n.mass_density), p = n.average(n.mass_pressure);
+       if (n.empty() || !(rho > 0) || !(p > 0)) return real_t(0);
+       const real_t vx = n.momentum_x / n.mass, vy = n.momentum_y / n.mass;
+       return std::sqrt((vx * vx + vy * vy) * rho / (n.gamma * p));
+     }},
+    {"mass", [](const NodeSample& n) { return n.mass; }},
 };
 
 // XDMF's NumberType of a dataset of T (its Precision is sizeof(T)).
@@ -151,8 +162,10 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
     h5::write_attribute(file, "num_ranks", static_cast<double>(context_.size()));
     h5::write_string_attribute(file, "case", case_name_);
     h5::write_string_attribute(file, "layout",
-                               "particles: one 1D dataset per field, position is (N, 2) [x, y]; "
-                               "grid: (ny, nx) row-major node arrays, x fastest, physical nodes only");
+                               "particles: one 1D dataset per scalar field, position (N, 2) [x, y], velocity "
+                               "(N, 3) [vx, vy, 0], vertices (N) 0..N-1; grid: node arrays of nodes_x x nodes_y "
+                               "(attributes) flattened with x fastest, physical nodes only, velocity (nodes, 3); grid "
+                               "fields are the particles' mass-weighted averages on the nodes, mass their sum");
 
     {
       Handle diag(H5Gcreate2(file, "diagnostics", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
@@ -173,6 +186,19 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
         xy[2 * k + 1] = y(k);
       }
       h5::write_block(group, "position", {total, 2}, {offset, 0}, {static_cast<hsize_t>(n), 2}, xy.data(), context_);
+      auto vx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.velocity_x);
+      auto vy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.velocity_y);
+      std::vector<real_t> velocity(3 * static_cast<size_t>(n), real_t(0));
+      std::vector<long long> vertices(static_cast<size_t>(n));
+      for (index_t k = 0; k < n; ++k) {
+        velocity[3 * k] = vx(k);
+        velocity[3 * k + 1] = vy(k);
+        vertices[k] = static_cast<long long>(offset) + k;
+      }
+      h5::write_block(group, "velocity", {total, 3}, {offset, 0}, {static_cast<hsize_t>(n), 3}, velocity.data(),
+                      context_);
+      // Particle k is vertex cell k: without cells, ParaView's XDMF 3 reader shows no particles.
+      h5::write_block(group, "vertices", {total}, {offset}, {static_cast<hsize_t>(n)}, vertices.data(), context_);
       for_each_snapshot_particle_field(pt, [&](const char* name, const auto& view) {
         write_particle_field(group, name, view, n, offset, total, context_);
       });
@@ -185,27 +211,40 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
       const index_t nx = owned.extent_x(), ny = owned.extent_y();
       auto state = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), projection);
       const size_t num_fields = sizeof(grid_snapshot_fields) / sizeof(grid_snapshot_fields[0]);
-      std::vector<std::vector<real_t>> values(num_fields, std::vector<real_t>(static_cast<size_t>(nx) * ny));
-      const real_t threshold = solver.node_mass_threshold();
+      const size_t num_nodes = static_cast<size_t>(nx) * ny;
+      std::vector<std::vector<real_t>> values(num_fields, std::vector<real_t>(num_nodes));
+      std::vector<real_t> velocity(3 * num_nodes, real_t(0));
+      const real_t threshold = solver.node_mass_threshold(), gamma = solver.config().physics.gamma;
       for (index_t j = 0; j < ny; ++j)
         for (index_t i = 0; i < nx; ++i) {
-          const index_t gi = owned.begin_x + i, gj = owned.begin_y + j;
-          const index_t node = geo.node_index(slab.local_node_x(gi), slab.local_node_y(gj));
-          const bool edge_x = gi == 0 || gi == slab.global_cells_x;
-          const bool edge_y = gj == 0 || gj == slab.global_cells_y;
-          const NodeSample sample{state(node, GridFields::mass), state(node, GridFields::momentum_x),
-                                  state(node, GridFields::momentum_y),
-                                  slab.cell_area() * (edge_x ? real_t(0.5) : 1) * (edge_y ? real_t(0.5) : 1), threshold};
-          for (size_t f = 0; f < num_fields; ++f) values[f][i + nx * j] = grid_snapshot_fields[f].value(sample);
+          const index_t node = geo.node_index(slab.local_node_x(owned.begin_x + i), slab.local_node_y(owned.begin_y + j));
+          const NodeSample sample{state(node, GridFields::projected_mass),
+                                  state(node, GridFields::projected_momentum_x),
+                                  state(node, GridFields::projected_momentum_y),
+                                  state(node, GridFields::projected_mass_density),
+                                  state(node, GridFields::projected_mass_pressure),
+                                  state(node, GridFields::projected_mass_energy),
+                                  threshold,
+                                  gamma};
+          const size_t k = static_cast<size_t>(i + nx * j);
+          for (size_t f = 0; f < num_fields; ++f) values[f][k] = grid_snapshot_fields[f].value(sample);
+          velocity[3 * k] = sample.average(sample.momentum_x);
+          velocity[3 * k + 1] = sample.average(sample.momentum_y);
         }
       Handle group(H5Gcreate2(file, "grid", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
                    "create group grid");
-      const std::vector<hsize_t> dims = {static_cast<hsize_t>(slab.global_cells_y + 1),
-                                         static_cast<hsize_t>(slab.global_cells_x + 1)};
-      const std::vector<hsize_t> start = {static_cast<hsize_t>(owned.begin_y), static_cast<hsize_t>(owned.begin_x)};
-      const std::vector<hsize_t> block = {static_cast<hsize_t>(ny), static_cast<hsize_t>(nx)};
+      // Flat node arrays (x fastest), as XDMF readers without co-rectilinear meshes (meshio) need
+      // them; nodes_x and nodes_y give the 2D shape.
+      const hsize_t global_x = static_cast<hsize_t>(slab.global_cells_x + 1);
+      const hsize_t global_nodes = global_x * static_cast<hsize_t>(slab.global_cells_y + 1);
+      const hsize_t first = static_cast<hsize_t>(owned.begin_x) + global_x * static_cast<hsize_t>(owned.begin_y);
       for (size_t f = 0; f < num_fields; ++f)
-        h5::write_block(group, grid_snapshot_fields[f].name, dims, start, block, values[f].data(), context_);
+        h5::write_rectangle_rows(group, grid_snapshot_fields[f].name, global_nodes, 1, first, static_cast<hsize_t>(nx),
+                                 static_cast<hsize_t>(ny), global_x, values[f].data(), context_);
+      h5::write_rectangle_rows(group, "velocity", global_nodes, 3, first, static_cast<hsize_t>(nx),
+                               static_cast<hsize_t>(ny), global_x, velocity.data(), context_);
+      h5::write_attribute(group, "nodes_x", static_cast<double>(slab.global_cells_x + 1));
+      h5::write_attribute(group, "nodes_y", static_cast<double>(slab.global_cells_y + 1));
       grid_nodes_x_ = slab.global_cells_x + 1;
       grid_nodes_y_ = slab.global_cells_y + 1;
       grid_origin_x_ = slab.domain_x_min;
@@ -223,58 +262,147 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
   if (context_.is_root()) std::filesystem::rename(temporary, path);
 
   records_.push_back({name, time, static_cast<long>(total)});
-  if (context_.is_root()) write_xdmf(pt);
+  if (context_.is_root()) {
+    if (!std::filesystem::exists(directory_ + "/" + mesh_file_name())) write_mesh_file();
+    write_xdmf(pt);
+  }
   return path;
 }
 
-void SnapshotWriter::write_xdmf(const ParticleState& particles) const {
-  const char* precision = sizeof(real_t) == 8 ? "8" : "4";
-  std::ostringstream particles_xdmf, grid;
-  const char* header =
-      "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"2.0\">\n <Domain>\n";
-  particles_xdmf << header << "  <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  grid << header << "  <Grid Name=\"grid\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  for (const Record& r : records_) {
-    particles_xdmf << std::setprecision(15) << "   <Grid Name=\"particles\" GridType=\"Uniform\">\n"
-              << "    <Time Value=\"" << r.time << "\"/>\n"
-              << "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << r.num_particles << "\"/>\n"
-              << "    <Geometry GeometryType=\"XY\">\n"
-              << "     <DataItem Dimensions=\"" << r.num_particles << " 2\" NumberType=\"Float\" Precision=\""
-              << precision << "\" Format=\"HDF\">" << r.file << ":/particles/position</DataItem>\n"
-              << "    </Geometry>\n";
-    for_each_snapshot_particle_field(particles, [&](const char* field, const auto& view) {
-      using Value = typename std::decay_t<decltype(view)>::non_const_value_type;
-      particles_xdmf << "    <Attribute Name=\"" << field << "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-                     << "     <DataItem Dimensions=\"" << r.num_particles << "\" NumberType=\""
-                     << xdmf_number_type<Value>() << "\" Precision=\"" << sizeof(Value) << "\" Format=\"HDF\">"
-                     << r.file << ":/particles/" << field << "</DataItem>\n"
-                     << "    </Attribute>\n";
-    });
-    particles_xdmf << "   </Grid>\n";
+namespace {
 
-    grid << std::setprecision(15) << "   <Grid Name=\"grid\" GridType=\"Uniform\">\n"
-         << "    <Time Value=\"" << r.time << "\"/>\n"
-         << "    <Topology TopologyType=\"2DCoRectMesh\" Dimensions=\"" << grid_nodes_y_ << " " << grid_nodes_x_
-         << "\"/>\n"
-         << "    <Geometry GeometryType=\"ORIGIN_DXDY\">\n"
-         << "     <DataItem Dimensions=\"2\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << grid_origin_y_
-         << " " << grid_origin_x_ << "</DataItem>\n"
-         << "     <DataItem Dimensions=\"2\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << grid_spacing_y_
-         << " " << grid_spacing_x_ << "</DataItem>\n"
-         << "    </Geometry>\n";
-    for (const GridSnapshotField& field : grid_snapshot_fields)
-      grid << "    <Attribute Name=\"" << field.name << "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
-           << "     <DataItem Dimensions=\"" << grid_nodes_y_ << " " << grid_nodes_x_
-           << "\" NumberType=\"Float\" Precision=\"" << precision << "\" Format=\"HDF\">" << r.file << ":/grid/"
-           << field.name << "</DataItem>\n"
-           << "    </Attribute>\n";
-    grid << "   </Grid>\n";
+const char* const xdmf_header = "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n <Domain>\n";
+const char* const xdmf_footer = " </Domain>\n</Xdmf>\n";
+
+// <DataItem> of an HDF5 dataset.
+std::string hdf_item(const std::string& dimensions, const char* number_type, size_t precision,
+                     const std::string& file, const std::string& path) {
+  std::ostringstream item;
+  item << "<DataItem Dimensions=\"" << dimensions << "\" NumberType=\"" << number_type << "\" Precision=\""
+       << precision << "\" Format=\"HDF\">" << file << ":" << path << "</DataItem>";
+  return item.str();
+}
+
+std::string attribute(const std::string& indent, const char* name, const char* type, const std::string& item) {
+  return indent + "<Attribute Name=\"" + name + "\" AttributeType=\"" + type + "\" Center=\"Node\">\n" + indent +
+         " " + item + "\n" + indent + "</Attribute>\n";
+}
+
+}  // namespace
+
+// The particles of one snapshot as an XDMF uniform grid: vertex cells, the (x, y) geometry, the
+// velocity vector and the scalar fields. `time` < 0 leaves out the <Time> element (meshio reads
+// a file of one grid without one).
+std::string SnapshotWriter::particles_grid_xml(const Record& r, const ParticleState& particles, bool with_time,
+                                               const std::string& indent) const {
+  const size_t real_size = sizeof(real_t);
+  const std::string n = std::to_string(r.num_particles);
+  std::ostringstream xml;
+  xml << std::setprecision(15) << indent << "<Grid Name=\"particles\" GridType=\"Uniform\">\n";
+  if (with_time) xml << indent << " <Time Value=\"" << r.time << "\"/>\n";
+  xml << indent << " <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\">\n"
+      << indent << "  " << hdf_item(n, "Int", 8, r.file, "/particles/vertices") << "\n"
+      << indent << " </Topology>\n"
+      << indent << " <Geometry GeometryType=\"XY\">\n"
+      << indent << "  " << hdf_item(n + " 2", "Float", real_size, r.file, "/particles/position") << "\n"
+      << indent << " </Geometry>\n";
+  xml << attribute(indent + " ", "velocity", "Vector", hdf_item(n + " 3", "Float", real_size, r.file, "/particles/velocity"));
+  for_each_snapshot_particle_field(particles, [&](const char* field, const auto& view) {
+    using Value = typename std::decay_t<decltype(view)>::non_const_value_type;
+    xml << attribute(indent + " ", field, "Scalar",
+                     hdf_item(n, xdmf_number_type<Value>(), sizeof(Value), r.file, std::string("/particles/") + field));
+  });
+  xml << indent << "</Grid>\n";
+  return xml.str();
+}
+
+// The grid of one snapshot. On a 3D co-rectilinear mesh one node thick, the (ny, nx) node arrays
+// read as (z, y, x) = (1, ny, nx): ParaView and VisIt put it in the XY plane (a 2DCoRectMesh,
+// read as (y, z), put it in the YZ plane, away from the particles). meshio knows no co-rectilinear
+// mesh: `explicit_mesh` gives the nodes' coordinates and quadrilateral cells from the mesh file.
+std::string SnapshotWriter::grid_grid_xml(const Record& r, bool explicit_mesh, const std::string& indent) const {
+  const size_t real_size = sizeof(real_t);
+  const std::string ny = std::to_string(grid_nodes_y_), nx = std::to_string(grid_nodes_x_);
+  const std::string nodes = std::to_string(grid_nodes_x_ * grid_nodes_y_);
+  const std::string cells = std::to_string((grid_nodes_x_ - 1) * (grid_nodes_y_ - 1));
+  std::ostringstream xml;
+  xml << std::setprecision(15) << indent << "<Grid Name=\"grid\" GridType=\"Uniform\">\n";
+  std::string scalar_dims = "1 " + ny + " " + nx, vector_dims = "1 " + ny + " " + nx + " 3";
+  if (explicit_mesh) {
+    scalar_dims = nodes;
+    vector_dims = nodes + " 3";
+    xml << indent << " <Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"" << cells << "\">\n"
+        << indent << "  " << hdf_item(cells + " 4", "Int", 8, mesh_file_name(), "/cells") << "\n"
+        << indent << " </Topology>\n"
+        << indent << " <Geometry GeometryType=\"XY\">\n"
+        << indent << "  " << hdf_item(nodes + " 2", "Float", 8, mesh_file_name(), "/points") << "\n"
+        << indent << " </Geometry>\n";
+  } else {
+    xml << indent << " <Time Value=\"" << r.time << "\"/>\n"
+        << indent << " <Topology TopologyType=\"3DCoRectMesh\" Dimensions=\"" << scalar_dims << "\"/>\n"
+        << indent << " <Geometry GeometryType=\"ORIGIN_DXDYDZ\">\n"
+        << indent << "  <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">0 "
+        << grid_origin_y_ << " " << grid_origin_x_ << "</DataItem>\n"
+        << indent << "  <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">1 "
+        << grid_spacing_y_ << " " << grid_spacing_x_ << "</DataItem>\n"
+        << indent << " </Geometry>\n";
   }
-  const char* footer = "  </Grid>\n </Domain>\n</Xdmf>\n";
-  particles_xdmf << footer;
-  grid << footer;
-  write_file_atomically(particles_xdmf_path(), particles_xdmf.str());
-  write_file_atomically(grid_xdmf_path(), grid.str());
+  xml << attribute(indent + " ", "velocity", "Vector", hdf_item(vector_dims, "Float", real_size, r.file, "/grid/velocity"));
+  for (const GridSnapshotField& field : grid_snapshot_fields)
+    xml << attribute(indent + " ", field.name, "Scalar",
+                     hdf_item(scalar_dims, "Float", real_size, r.file, std::string("/grid/") + field.name));
+  xml << indent << "</Grid>\n";
+  return xml.str();
+}
+
+std::string SnapshotWriter::mesh_file_name() const { return case_name_ + "_grid_mesh.h5"; }
+
+void SnapshotWriter::write_mesh_file() const {
+  // The nodes' coordinates (x fastest, as the node arrays) and the cells' four nodes
+  // counter-clockwise, for readers without co-rectilinear meshes; written by rank 0 alone.
+  const std::string path = directory_ + "/" + mesh_file_name(), temporary = path + ".tmp";
+  std::vector<double> points;
+  std::vector<long long> cells;
+  points.reserve(static_cast<size_t>(2 * grid_nodes_x_ * grid_nodes_y_));
+  for (long j = 0; j < grid_nodes_y_; ++j)
+    for (long i = 0; i < grid_nodes_x_; ++i) {
+      points.push_back(grid_origin_x_ + i * grid_spacing_x_);
+      points.push_back(grid_origin_y_ + j * grid_spacing_y_);
+    }
+  for (long j = 0; j + 1 < grid_nodes_y_; ++j)
+    for (long i = 0; i + 1 < grid_nodes_x_; ++i) {
+      const long long a = i + grid_nodes_x_ * j;
+      cells.insert(cells.end(), {a, a + 1, a + 1 + grid_nodes_x_, a + grid_nodes_x_});
+    }
+  const ParallelContext alone = ParallelContext::self();  // this rank alone: plain (serial) HDF5 access
+  {
+    Handle file(h5::create_file(temporary, alone), H5Fclose, "create " + temporary);
+    const hsize_t num_points = static_cast<hsize_t>(points.size() / 2), num_cells = static_cast<hsize_t>(cells.size() / 4);
+    h5::write_block(file, "points", {num_points, 2}, {0, 0}, {num_points, 2}, points.data(), alone);
+    h5::write_block(file, "cells", {num_cells, 4}, {0, 0}, {num_cells, 4}, cells.data(), alone);
+  }
+  std::filesystem::rename(temporary, path);
+}
+
+void SnapshotWriter::write_xdmf(const ParticleState& particles) const {
+  // The time series that ParaView and VisIt open.
+  std::ostringstream particles_series, grid_series;
+  particles_series << xdmf_header << "  <Grid Name=\"particles\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  grid_series << xdmf_header << "  <Grid Name=\"grid\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  for (const Record& r : records_) {
+    particles_series << particles_grid_xml(r, particles, /*with_time=*/true, "   ");
+    grid_series << grid_grid_xml(r, /*explicit_mesh=*/false, "   ");
+  }
+  particles_series << "  </Grid>\n" << xdmf_footer;
+  grid_series << "  </Grid>\n" << xdmf_footer;
+  write_file_atomically(particles_xdmf_path(), particles_series.str());
+  write_file_atomically(grid_xdmf_path(), grid_series.str());
+  // The latest snapshot alone, one grid per file, as meshio reads XDMF.
+  const Record& latest = records_.back();
+  const std::string stem = directory_ + "/" + latest.file.substr(0, latest.file.size() - 3);
+  write_file_atomically(stem + "_particles.xmf",
+                        xdmf_header + particles_grid_xml(latest, particles, /*with_time=*/false, "  ") + xdmf_footer);
+  write_file_atomically(stem + "_grid.xmf", xdmf_header + grid_grid_xml(latest, /*explicit_mesh=*/true, "  ") + xdmf_footer);
 }
 #endif
 

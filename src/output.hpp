@@ -56,8 +56,14 @@ class SnapshotWriter {
     double time;
     long num_particles;
   };
-  // The XDMF of the records so far; `particles` tells the particle fields' types.
+  // The XDMF time series of the records so far, and the latest snapshot's own XDMF files;
+  // `particles` tells the particle fields' types.
   void write_xdmf(const ParticleState& particles) const;
+  std::string particles_grid_xml(const Record& record, const ParticleState& particles, bool with_time,
+                                 const std::string& indent) const;
+  std::string grid_grid_xml(const Record& record, bool explicit_mesh, const std::string& indent) const;
+  std::string mesh_file_name() const;
+  void write_mesh_file() const;
   std::string file_name(int index) const;
 
   std::string directory_;

@@ -1,5 +1,7 @@
 #include "slab_state.hpp"
 
+#include <algorithm>
+
 namespace mpmflow {
 namespace {
 
@@ -28,7 +30,8 @@ SlabState::SlabState(const CaseConfig& config, const ParallelContext& context, c
       decomposition_(decomposition),
       slab_(slab),
       fields_(slab.geometry),
-      halo_(slab, context, GridFields::num_state_columns),
+      // The widest node fields summed over slabs: the step's state, or the output projection.
+      halo_(slab, context, std::max<int>(GridFields::num_state_columns, GridFields::num_projection_columns)),
       obstacles_(make_obstacle_grid(config.obstacles, slab)),
       grid_boundaries_(config, slab, obstacles_),
       particle_boundaries_(config, slab, obstacles_) {}

@@ -165,7 +165,7 @@ bool Solver::balance_load() {
 
 NodeFieldsView Solver::grid_projection() const {
   NodeFieldsView projection("grid_projection", slab().geometry.num_nodes(), GridFields::num_projection_columns);
-  transfers_->p2g_mass_momentum(particles_, projection);
+  transfers_->p2g_output_projection(particles_, projection);
   slab_->halo().sum_shared_nodes(projection, 0, GridFields::num_projection_columns);
   return projection;
 }

@@ -61,10 +61,13 @@ class Solver {
   // The rebalancings so far.
   const std::vector<BalanceReport>& balance_reports() const { return balance_reports_; }
 
-  // The particles' mass and momentum, where they are now, on this slab's nodes (columns
-  // GridFields::mass, momentum_x, momentum_y), summed over the slabs: what grid output shows.
+  // The particles' state, where they are now, on this slab's nodes (GridFields::ProjectionColumn:
+  // mass, momentum, and mass times density, pressure and specific energy), summed over the
+  // slabs: what grid output shows.
   // Collective. Computed apart: the step's grid fields are left as they are.
   NodeFieldsView grid_projection() const;
+  // The case the solver runs (after --set and defaults).
+  const CaseConfig& config() const { return config_; }
 
   // Total particles over all ranks.
   long long global_particle_count() const { return context().sum(particles_.count); }

@@ -22,6 +22,22 @@ struct MassAndMomentum {
   }
 };
 
+// P2G(I, M), P2G(I, M V), P2G(I, M rho), P2G(I, M P), P2G(I, M E): the state on the grid, for
+// output (GridFields::ProjectionColumn).
+struct OutputProjection {
+  static constexpr int num_components = GridFields::num_projection_columns;
+  RealView mass, velocity_x, velocity_y, density, pressure, specific_energy;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[num_components]) const {
+    const real_t m = mass(p);
+    value[GridFields::projected_mass] = m;
+    value[GridFields::projected_momentum_x] = m * velocity_x(p);
+    value[GridFields::projected_momentum_y] = m * velocity_y(p);
+    value[GridFields::projected_mass_density] = m * density(p);
+    value[GridFields::projected_mass_pressure] = m * pressure(p);
+    value[GridFields::projected_mass_energy] = m * specific_energy(p);
+  }
+};
+
 // P2G(I, M V): the momentum remap of step 8.
 struct Momentum {
   static constexpr int num_components = 2;
@@ -232,13 +248,14 @@ class Transfers final : public TransferKernels {
                               k.viscosity_quadratic, k.viscosity_linear});
   }
 
-  void p2g_mass_momentum(const ParticleState& pt, const NodeFieldsView& target) override {
+  void p2g_output_projection(const ParticleState& pt, const NodeFieldsView& target) override {
     Kokkos::deep_copy(target, real_t(0));
     accumulation_.prepare(pt, geometry_);
     auto access = accumulation_.into(target);
     p2g_begin(access, target);
-    p2g("p2g_mass_momentum", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt), access,
-        GridFields::mass, MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y});
+    p2g("p2g_output_projection", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt), access,
+        GridFields::projected_mass,
+        OutputProjection{pt.mass, pt.velocity_x, pt.velocity_y, pt.density, pt.pressure, pt.specific_energy});
     p2g_end(access, target);
   }
 

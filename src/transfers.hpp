@@ -38,9 +38,10 @@ class TransferKernels {
   // artificial viscosity and (GIMP) the particle domain's stretches.
   virtual void g2pd_particle_update(const ParticleState& particles, const ThermodynamicConstants& constants,
                                     real_t dt) = 0;
-  // m = P2G(M), mv = P2G(M V) into `target` (GridFields::num_projection_columns columns, zeroed
-  // here): the particles' state on the grid, for output. Writes no field of the step.
-  virtual void p2g_mass_momentum(const ParticleState& particles, const NodeFieldsView& target) = 0;
+  // m = P2G(M), mv = P2G(M V), and P2G(M rho), P2G(M P), P2G(M E) into `target`
+  // (GridFields::ProjectionColumn, zeroed here): the particles' state on the grid, for output.
+  // Writes no field of the step.
+  virtual void p2g_output_projection(const ParticleState& particles, const NodeFieldsView& target) = 0;
 
   // The P2G accumulation in use ("automatic" resolved for this execution space).
   virtual P2GStrategy strategy() const = 0;

@@ -121,7 +121,7 @@ TEST_F(CommandLine, RunWritesHdf5SnapshotsXdmfAndDiagnostics) {
   EXPECT_NE(r.output.find("particle-steps/s"), std::string::npos);
   EXPECT_NE(r.output.find("Time per phase"), std::string::npos);
   for (const char* name : {"sod_000000.h5", "sod_000001.h5", "sod_000002.h5", "sod_particles.xmf", "sod_grid.xmf",
-                           "diagnostics.csv"})
+                           "sod_000002_particles.xmf", "sod_000002_grid.xmf", "sod_grid_mesh.h5", "diagnostics.csv"})
     EXPECT_TRUE(fs::exists(dir_ / "out" / name)) << name;
   EXPECT_FALSE(fs::exists(dir_ / "out" / "sod_000003.h5"));
   for (const auto& entry : fs::directory_iterator(dir_ / "out"))
@@ -132,6 +132,12 @@ TEST_F(CommandLine, RunWritesHdf5SnapshotsXdmfAndDiagnostics) {
   EXPECT_NE(xdmf.find("<Time Value=\"0.0715\"/>"), std::string::npos) << xdmf;
   EXPECT_NE(xdmf.find("<Time Value=\"0.143\"/>"), std::string::npos) << xdmf;
   EXPECT_NE(xdmf.find("sod_000002.h5:/particles/density"), std::string::npos);
+  // XDMF 3; vertex cells (a Polyvertex without connectivity shows nothing in ParaView); the grid
+  // one node thick in z, so that readers put it in the XY plane.
+  EXPECT_NE(xdmf.find("<Xdmf Version=\"3.0\">"), std::string::npos);
+  EXPECT_NE(xdmf.find("sod_000002.h5:/particles/vertices"), std::string::npos);
+  EXPECT_NE(read_text(dir_ / "out" / "sod_grid.xmf").find("TopologyType=\"3DCoRectMesh\" Dimensions=\"1 2 21\""),
+            std::string::npos);
 
   // diagnostics.csv: a header and one line per output; the mass column never changes.
   std::istringstream csv(read_text(dir_ / "out" / "diagnostics.csv"));

@@ -21,8 +21,8 @@ import sys
 import h5py
 import numpy as np
 
-PARTICLE_FIELDS = ["position", "velocity_x", "velocity_y", "density", "pressure", "specific_energy", "mass"]
-GRID_FIELDS = ["node_mass", "node_velocity_x", "node_velocity_y", "node_density"]
+PARTICLE_FIELDS = ["position", "velocity", "density", "pressure", "specific_energy", "mass"]
+GRID_FIELDS = ["mass", "velocity", "density", "pressure", "specific_energy", "mach_number"]
 
 
 def snapshot_path(path, step):

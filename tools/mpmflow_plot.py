@@ -34,6 +34,7 @@ import glob
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 
@@ -42,10 +43,28 @@ import numpy as np
 
 
 def snapshot_files(output_dir):
-    """The snapshots <case>_<index>.h5 of a run (not its checkpoints), in output order."""
-    files = sorted(f for f in glob.glob(os.path.join(output_dir, "*.h5")) if "_checkpoint_" not in os.path.basename(f))
+    """The snapshots of the run in output_dir, in output order: those its XDMF time series
+    (<case>_particles.xmf) lists, so that snapshots an earlier, longer run left in the folder are
+    not taken for this run's; without one, the files <case>_<6 digits>.h5 (not checkpoints)."""
+    series = [f for f in glob.glob(os.path.join(output_dir, "*_particles.xmf"))
+              if not re.search(r"_\d{6}_particles\.xmf$", f)]
+    if len(series) > 1:
+        sys.exit(f"mpmflow_plot: error: {output_dir} holds the outputs of several cases ({', '.join(sorted(series))})")
+    if series:
+        import xml.etree.ElementTree as ET
+        files = []
+        for item in ET.parse(series[0]).getroot().iter("DataItem"):
+            name = (item.text or "").strip().split(":")[0]
+            if name.endswith(".h5") and (not files or files[-1] != name):
+                files.append(name)
+        files = [os.path.join(output_dir, name) for name in files]
+        missing = [f for f in files if not os.path.exists(f)]
+        if missing:
+            sys.exit(f"mpmflow_plot: error: {series[0]} lists {missing[0]}, which does not exist")
+    else:
+        files = sorted(f for f in glob.glob(os.path.join(output_dir, "*.h5")) if re.search(r"_\d{6}\.h5$", f))
     if not files:
-        sys.exit(f"mpmflow_plot: error: no HDF5 snapshots (*.h5) in {output_dir}")
+        sys.exit(f"mpmflow_plot: error: no snapshots (<case>_particles.xmf or <case>_NNNNNN.h5) in {output_dir}")
     return files
 
 
@@ -59,10 +78,13 @@ class Snapshot:
             self.x, self.y = position[:, 0], position[:, 1]
             self.particles = {name: f["particles"][name][...] for name in f["particles"] if name != "position"}
             grid = f["grid"]
-            self.grid = {name: grid[name][...] for name in grid}
+            nodes_x, nodes_y = int(grid.attrs["nodes_x"]), int(grid.attrs["nodes_y"])
+            # The flat node arrays as (ny, nx) (vectors (ny, nx, 3)), x fastest.
+            self.grid = {name: grid[name][...].reshape((nodes_y, nodes_x) + grid[name].shape[1:]) for name in grid}
             self.origin = (float(grid.attrs["origin_x"]), float(grid.attrs["origin_y"]))
             self.spacing = (float(grid.attrs["spacing_x"]), float(grid.attrs["spacing_y"]))
-        nodes_y, nodes_x = self.grid["node_mass"].shape
+        self.particles["velocity_x"] = self.particles["velocity"][:, 0]
+        self.particles["velocity_y"] = self.particles["velocity"][:, 1]
         self.cells = (nodes_x - 1, nodes_y - 1)
 
     def binned(self, values):
@@ -98,9 +120,9 @@ def plot_fields(args):
     sound = np.sqrt(args.gamma * np.maximum(p["pressure"], 0) / p["density"])
     mach = s.binned(np.hypot(p["velocity_x"], p["velocity_y"]) / sound)
     # Numerical schlieren as in the 2023 paper: log of the density-gradient magnitude, from the grid's
-    # nodal density (the P2G of mass spreads each particle over its stencil, which smooths the
+    # nodal density (the P2G spreads each particle over its stencil, which smooths the
     # particle-count noise that a per-cell bin shows), sampled at the cell centres.
-    node_density = s.grid["node_density"]
+    node_density = s.grid["density"]
     gy, gx = np.gradient(node_density, s.spacing[1], s.spacing[0])
     magnitude = np.hypot(gx, gy)
     magnitude = 0.25 * (magnitude[:-1, :-1] + magnitude[1:, :-1] + magnitude[:-1, 1:] + magnitude[1:, 1:])
@@ -173,13 +195,13 @@ def plot_sod(args):
     lines = text[text.index("x,density"):].strip().splitlines()
     exact = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
 
-    nodes_x = s.grid["node_mass"].shape[1]
+    nodes_x = s.grid["mass"].shape[1]
     grid_x = s.origin[0] + s.spacing[0] * np.arange(nodes_x)
     p = s.particles
     fig, axes = plt.subplots(3, 1, figsize=(7, 9), sharex=True)
-    panels = [("density", p["density"], s.grid["node_density"].mean(axis=0), 1),
-              ("velocity", p["velocity_x"], s.grid["node_velocity_x"].mean(axis=0), 2),
-              ("pressure", p["pressure"], None, 3)]
+    panels = [("density", p["density"], s.grid["density"].mean(axis=0), 1),
+              ("velocity", p["velocity_x"], s.grid["velocity"][:, :, 0].mean(axis=0), 2),
+              ("pressure", p["pressure"], s.grid["pressure"].mean(axis=0), 3)]
     for ax, (name, particle_values, grid_values, column) in zip(axes, panels):
         ax.plot(exact[:, 0], exact[:, column], "k-", lw=1.2, label="exact")
         if grid_values is not None:
