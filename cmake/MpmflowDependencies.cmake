@@ -40,6 +40,8 @@ else()
 endif()
 
 find_package(nlohmann_json 3 REQUIRED)
+# The command line (src/main.cpp only): Debian's libcli11-dev, header-only.
+find_package(CLI11 2 REQUIRED)
 
 if(MPMFLOW_ENABLE_MPI)
   find_package(MPI REQUIRED COMPONENTS C)

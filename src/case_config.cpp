@@ -484,7 +484,53 @@ void apply_override(json& doc, const std::string& source, const std::string& ass
 CaseConfig parse_case(const std::string& json_text, const std::string& source, PointsFiles* points_files) {
   json doc = json::parse(json_text, nullptr, false);
   if (doc.is_discarded()) throw ConfigError(source + ": not valid JSON");
-  return parse_document(doc, source, points_files);
+  CaseConfig config = parse_document(doc, source, points_files);
+  config.document = doc.dump();
+  return config;
+}
+
+namespace {
+json gas_state_json(const GasState& s) {
+  return {{"density", s.density}, {"pressure", s.pressure}, {"velocity", {s.velocity_x, s.velocity_y}}};
+}
+}  // namespace
+
+std::string effective_case_json(const CaseConfig& c) {
+  const json doc = c.document.empty() ? json::object() : json::parse(c.document);
+  json e;
+  e["name"] = c.name;
+  e["description"] = c.description;
+  e["domain"] = {{"x", {c.domain.x_min, c.domain.x_max}},
+                 {"y", {c.domain.y_min, c.domain.y_max}},
+                 {"cells_x", c.domain.cells_x},
+                 {"cells_y", c.domain.cells_y}};
+  e["physics"] = {{"gamma", c.physics.gamma},
+                  {"artificial_viscosity", {{"c0", c.physics.viscosity_quadratic}, {"c1", c.physics.viscosity_linear}}}};
+  e["time"] = {{"end", c.time.end_time}, {"cfl", c.time.cfl}, {"max_steps", c.time.max_steps}};
+  e["boundaries"] = {{"left", {{"type", to_string(c.boundaries.left)}}},
+                     {"right", {{"type", to_string(c.boundaries.right)}}},
+                     {"bottom", {{"type", to_string(c.boundaries.bottom)}}},
+                     {"top", {{"type", to_string(c.boundaries.top)}}},
+                     {"particle_supply", to_string(c.boundaries.particle_supply)}};
+  if (c.boundaries.has_free_stream) e["free_stream"] = gas_state_json(c.boundaries.free_stream);
+  if (doc.contains("obstacles")) e["obstacles"] = doc["obstacles"];
+  e["particles"] = {{"placement", to_string(c.particles.placement)},
+                    {"per_cell", {c.particles.per_cell_x, c.particles.per_cell_y}},
+                    {"seed", c.particles.seed}};
+  e["initial_state"] = {{"background", gas_state_json(c.initial_state.background)}};
+  if (doc.contains("initial_state") && doc["initial_state"].contains("regions"))
+    e["initial_state"]["regions"] = doc["initial_state"]["regions"];
+  e["output"] = {{"directory", c.output.directory},
+                 {"snapshots", c.output.snapshots},
+                 {"checkpoint_interval", c.output.checkpoint_interval},
+                 {"checkpoints_kept", c.output.checkpoints_kept}};
+  e["decomposition"] = {{"axis", c.decomposition.axis == 0 ? "x" : "y"},
+                        {"balance_interval", c.decomposition.balance_interval}};
+  e["numerics"] = {{"reorder_interval", c.numerics.reorder_interval},
+                   {"p2g", to_string(c.numerics.p2g)},
+                   {"shape_function", to_string(c.numerics.shape_function)},
+                   {"fused_kernels", c.numerics.fused_kernels}};
+  return e.dump(2);
 }
 
 std::string load_case_document(const std::string& path, const std::vector<std::string>& overrides) {

@@ -141,7 +141,8 @@ struct NumericsConfig {
 };
 
 struct CaseConfig {
-  std::string source;  // the file it came from, for messages
+  std::string source;    // the file it came from, for messages
+  std::string document;  // its JSON text, after --set (effective_case_json starts from it)
   std::string name;
   std::string description;
   DomainConfig domain;
@@ -175,6 +176,11 @@ std::string load_case_document(const std::string& path, const std::vector<std::s
 // against its directory). Points files come from `points_files` when it holds them; those read
 // from disk are added to it.
 CaseConfig parse_case(const std::string& json_text, const std::string& source, PointsFiles* points_files = nullptr);
+
+// The case as it runs: its document (after --set) with every key the parser reads and the case
+// leaves out set to the default it took, in canonical order (2-space indented JSON). Parsing the
+// result gives the same case. Obstacles and initial regions are as the document gives them.
+std::string effective_case_json(const CaseConfig& config);
 
 // ---- The names of enum values in case files and messages: one table per enum, which the parser
 // reads and to_string prints.

@@ -43,6 +43,7 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
   {
     Handle file(h5::create_file(temporary, context), H5Fclose, "create " + temporary);
     h5::write_string_attribute(file, "case", case_name);
+    h5::write_string_attribute(file, "effective_case", effective_case_json(solver.config()));
     h5::write_attribute(file, "time", clock.time);
     h5::write_attribute(file, "step", static_cast<double>(clock.step));
     h5::write_attribute(file, "next_snapshot", clock.next_snapshot);

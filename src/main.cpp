@@ -1,9 +1,7 @@
-// mpmflow command line:
-//   [mpirun -np N] mpmflow run CASE.json [--output DIR] [--set json/path=value ...] [--progress-interval S]
-//                               [--restart CHECKPOINT.h5] [--gpu-aware-mpi]
-//   mpmflow riemann --left RHO,U,P --right RHO,U,P --x0 X --time T [--gamma G] [--x A,B] [--points N]
-//   mpmflow --version | --help
-// Kokkos options (--kokkos-threads=N / --kokkos-num-threads=N, ...) are passed through to Kokkos.
+// mpmflow command line (CLI11): subcommands run, case and riemann, each with its own --help;
+// `mpmflow --help` and `mpmflow --version` need no case. Options starting with --kokkos- are
+// taken out before parsing and passed to Kokkos, which is initialised only for `run`, after the
+// command line has been parsed (so --help and --version print nothing of Kokkos).
 // Exit codes: 0 success, 1 runtime failure, 2 bad command line or bad case file. Under MPI every
 // rank exits with the same code; rank 0 alone prints the error (an error met by one rank only
 // aborts the job).
@@ -11,8 +9,11 @@
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
 
 #ifdef MPMFLOW_HAVE_MPI
 #include <mpi.h>
@@ -34,120 +35,36 @@ namespace {
 constexpr int kExitRuntimeError = 1;
 constexpr int kExitUsage = 2;
 
-const char* kUsage =
-    "usage: [mpirun -np N] mpmflow run CASE.json [--output DIR] [--set json/path=value ...]\n"
-    "                      [--progress-interval SECONDS] [--restart CHECKPOINT.h5] [--gpu-aware-mpi]\n"
-    "       mpmflow riemann --left RHO,U,P --right RHO,U,P --x0 X --time T [--gamma G] [--x A,B] [--points N]\n"
-    "       mpmflow --version\n"
-    "       mpmflow --help\n"
-    "\n"
-    "  --output DIR            write outputs to DIR (overrides output/directory)\n"
-    "  --set PATH=VALUE        override a case-file value, e.g. --set domain/cells_x=400\n"
-    "                          (VALUE is JSON; anything that is not JSON is taken as a string)\n"
-    "  --progress-interval S   seconds of wall time between progress lines (default 2)\n"
-    "  --restart FILE          continue from a checkpoint (output/checkpoint_interval writes them)\n"
-    "  --gpu-aware-mpi         pass GPU buffers to MPI directly (default: staged through host memory)\n"
-    "  Under mpirun each rank runs one slab of the grid (case key decomposition) and drives one GPU\n"
-    "  of its node (chosen from its node-local rank).\n"
-    "  Kokkos options such as --kokkos-threads=N are passed to Kokkos.\n"
-    "  riemann prints the exact solution of a 1D Riemann problem (Toro) as CSV x,density,velocity,pressure\n"
-    "  (defaults: gamma 1.4, x in [0,1], 1001 points); the plotting tool draws it beside a run.\n";
-
 struct CommandLine {
-  std::string command;
-  std::vector<std::string> arguments;  // of the riemann command
   std::string case_file;
   std::string output_directory;
   std::vector<std::string> overrides;
   double progress_interval = 2.0;
   std::string restart_file;
   bool gpu_aware_mpi = false;
+  // riemann
+  std::vector<double> left, right, x_range = {0, 1};
+  double x0 = 0, time = 0, gamma = 1.4;
+  int points = 1001;
 };
 
 struct UsageError {
   std::string message;
 };
 
-CommandLine parse_command_line(const std::vector<std::string>& args) {
-  CommandLine cl;
-  if (args.empty()) throw UsageError{"no command given"};
-  cl.command = args[0];
-  if (cl.command == "--help" || cl.command == "-h" || cl.command == "--version") return cl;
-  if (cl.command == "riemann") {
-    cl.arguments.assign(args.begin() + 1, args.end());
-    return cl;
-  }
-  if (cl.command != "run") throw UsageError{"unknown command '" + cl.command + "'"};
-  for (size_t i = 1; i < args.size(); ++i) {
-    const std::string& a = args[i];
-    auto value = [&](const std::string& option) -> std::string {
-      if (i + 1 >= args.size()) throw UsageError{option + " needs a value"};
-      return args[++i];
-    };
-    if (a == "--output") cl.output_directory = value(a);
-    else if (a == "--restart") cl.restart_file = value(a);
-    else if (a == "--gpu-aware-mpi") cl.gpu_aware_mpi = true;
-    else if (a == "--set") cl.overrides.push_back(value(a));
-    else if (a == "--progress-interval") {
-      const std::string v = value(a);
-      char* end = nullptr;
-      cl.progress_interval = std::strtod(v.c_str(), &end);
-      if (end == v.c_str() || *end != '\0' || !(cl.progress_interval >= 0))
-        throw UsageError{"--progress-interval expects a number of seconds >= 0; got '" + v + "'"};
-    } else if (a.size() > 1 && a[0] == '-') throw UsageError{"unknown option '" + a + "'"};
-    else if (cl.case_file.empty()) cl.case_file = a;
-    else throw UsageError{"more than one case file: '" + cl.case_file + "' and '" + a + "'"};
-  }
-  if (cl.case_file.empty()) throw UsageError{"run needs a case file"};
-  return cl;
-}
-
-// Numbers separated by commas, exactly `count` of them.
-std::vector<double> parse_numbers(const std::string& option, const std::string& text, size_t count) {
-  std::vector<double> values;
-  size_t start = 0;
-  while (start <= text.size()) {
-    const size_t comma = std::min(text.find(',', start), text.size());
-    const std::string item = text.substr(start, comma - start);
-    char* end = nullptr;
-    const double v = std::strtod(item.c_str(), &end);
-    if (item.empty() || *end != '\0') break;
-    values.push_back(v);
-    start = comma + 1;
-  }
-  if (values.size() != count)
-    throw UsageError{option + " expects " + std::to_string(count) + " comma-separated numbers; got '" + text + "'"};
-  return values;
-}
-
-int print_riemann_solution(const std::vector<std::string>& args) {
-  std::vector<double> left, right, x_range = {0, 1};
-  double x0 = 0, time = 0, gamma = 1.4, points = 1001;
-  bool has_x0 = false, has_time = false;
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (i + 1 >= args.size()) throw UsageError{args[i] + " needs a value"};
-    const std::string& option = args[i];
-    const std::string& value = args[++i];
-    if (option == "--left") left = parse_numbers(option, value, 3);
-    else if (option == "--right") right = parse_numbers(option, value, 3);
-    else if (option == "--x") x_range = parse_numbers(option, value, 2);
-    else if (option == "--x0") x0 = parse_numbers(option, value, 1)[0], has_x0 = true;
-    else if (option == "--time") time = parse_numbers(option, value, 1)[0], has_time = true;
-    else if (option == "--gamma") gamma = parse_numbers(option, value, 1)[0];
-    else if (option == "--points") points = parse_numbers(option, value, 1)[0];
-    else throw UsageError{"riemann: unknown option '" + option + "'"};
-  }
-  if (left.empty() || right.empty() || !has_x0 || !has_time)
-    throw UsageError{"riemann needs --left, --right, --x0 and --time"};
-  if (!(left[0] > 0 && left[2] > 0 && right[0] > 0 && right[2] > 0 && gamma > 1 && time >= 0 && points >= 2))
-    throw UsageError{"riemann expects positive densities and pressures, gamma > 1, time >= 0 and points >= 2"};
-  const mpmflow::ExactRiemannSolver exact({left[0], left[1], left[2]}, {right[0], right[1], right[2]}, gamma);
+// The exact solution of the riemann command's problem, as CSV.
+int print_riemann_solution(const CommandLine& cl) {
+  const std::vector<double>& left = cl.left;
+  const std::vector<double>& right = cl.right;
+  if (!(left[0] > 0 && left[2] > 0 && right[0] > 0 && right[2] > 0))
+    throw UsageError{"riemann expects positive densities and pressures in --left and --right RHO,U,P"};
+  if (!(cl.x_range[0] < cl.x_range[1])) throw UsageError{"riemann --x expects A,B with A < B"};
+  const mpmflow::ExactRiemannSolver exact({left[0], left[1], left[2]}, {right[0], right[1], right[2]}, cl.gamma);
   std::cout << "x,density,velocity,pressure\n";
   std::cout.precision(10);
-  const int n = static_cast<int>(points);
-  for (int k = 0; k < n; ++k) {
-    const double x = x_range[0] + (x_range[1] - x_range[0]) * k / (n - 1);
-    const mpmflow::PrimitiveState1D s = exact.solution(x, time, x0);
+  for (int k = 0; k < cl.points; ++k) {
+    const double x = cl.x_range[0] + (cl.x_range[1] - cl.x_range[0]) * k / (cl.points - 1);
+    const mpmflow::PrimitiveState1D s = exact.solution(x, cl.time, cl.x0);
     std::cout << x << "," << s.density << "," << s.velocity << "," << s.pressure << "\n";
   }
   return 0;
@@ -182,16 +99,7 @@ mpmflow::CaseConfig load_case_on_root(const CommandLine& cl, const mpmflow::Para
   return config;
 }
 
-int run(const CommandLine& cl, const mpmflow::ParallelContext& context, const std::string& device) {
-  if (cl.command == "riemann") return print_riemann_solution(cl.arguments);
-  if (cl.command == "--help" || cl.command == "-h") {
-    if (context.is_root()) std::cout << kUsage;
-    return 0;
-  }
-  if (cl.command == "--version") {
-    if (context.is_root()) std::cout << mpmflow::build_description() << "\n";
-    return 0;
-  }
+int run_case(const CommandLine& cl, const mpmflow::ParallelContext& context, const std::string& device) {
   const mpmflow::CaseConfig config = load_case_on_root(cl, context);
   mpmflow::RunOptions options;
   options.progress_interval_seconds = cl.progress_interval;
@@ -200,6 +108,72 @@ int run(const CommandLine& cl, const mpmflow::ParallelContext& context, const st
   options.device_description = device;
   mpmflow::run_simulation(config, options, std::cout);
   return 0;
+}
+
+// The subcommands and their options, bound to `cl`.
+void define_command_line(CLI::App& app, CommandLine& cl) {
+  app.require_subcommand(1);
+  app.set_version_flag("--version", mpmflow::version_description(), "print the version and build, then exit");
+  app.footer(
+      "Kokkos options (--kokkos-threads=N, --kokkos-device-id=N, ...; see the Kokkos documentation) are passed to\n"
+      "Kokkos. Exit codes: 0 success, 1 runtime failure, 2 bad command line or case file.");
+
+  CLI::App* run = app.add_subcommand("run", "run a case: [mpirun -np N] mpmflow run CASE.json [options]");
+  run->add_option("CASE", cl.case_file, "the case file (JSON)")->required();
+  run->add_option("--output", cl.output_directory, "write outputs to DIR (overrides output/directory)")
+      ->type_name("DIR");
+  run->add_option("--set", cl.overrides,
+                  "override a case-file value, e.g. --set domain/cells_x=400 (VALUE is JSON; anything that is "
+                  "not JSON is taken as a string); repeatable")
+      ->type_name("PATH=VALUE")
+      ->take_all()
+      ->expected(1);
+  run->add_option("--progress-interval", cl.progress_interval, "seconds of wall time between progress lines")
+      ->type_name("SECONDS")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  run->add_option("--restart", cl.restart_file, "continue from a checkpoint (output/checkpoint_interval writes them)")
+      ->type_name("CHECKPOINT.h5");
+  run->add_flag("--gpu-aware-mpi", cl.gpu_aware_mpi,
+                "pass GPU buffers to MPI directly (default: staged through host memory)");
+  run->footer(
+      "Under mpirun each rank runs one slab of the grid (case key decomposition) and drives one GPU of its node\n"
+      "(chosen from its node-local rank).");
+
+  CLI::App* show = app.add_subcommand(
+      "case", "print the effective case (after --set, with every default) as JSON: mpmflow case CASE.json [--set ...]");
+  show->add_option("CASE", cl.case_file, "the case file (JSON)")->required();
+  show->add_option("--set", cl.overrides, "override a case-file value, as for run; repeatable")
+      ->type_name("PATH=VALUE")
+      ->take_all()
+      ->expected(1);
+
+  CLI::App* riemann = app.add_subcommand(
+      "riemann", "print the exact solution of a 1D Riemann problem (Toro) as CSV x,density,velocity,pressure");
+  riemann->add_option("--left", cl.left, "left state")->type_name("RHO,U,P")->delimiter(',')->expected(3)->required();
+  riemann->add_option("--right", cl.right, "right state")->type_name("RHO,U,P")->delimiter(',')->expected(3)->required();
+  riemann->add_option("--x0", cl.x0, "position of the initial discontinuity")->type_name("X")->required();
+  riemann->add_option("--time", cl.time, "time of the solution")->type_name("T")->check(CLI::NonNegativeNumber)->required();
+  riemann->add_option("--gamma", cl.gamma, "ratio of specific heats")->check(CLI::Range(1.0 + 1e-12, 1e6))
+      ->capture_default_str();
+  riemann->add_option("--x", cl.x_range, "interval sampled")->type_name("A,B")->delimiter(',')->expected(2)
+      ->capture_default_str();
+  riemann->add_option("--points", cl.points, "points sampled")->check(CLI::Range(2, 100000000))->capture_default_str();
+  riemann->footer("The plotting tool (tools/mpmflow_plot.py sod) draws it beside a run.");
+}
+
+// --kokkos-threads and --kokkos-num-threads take a positive integer; Kokkos aborts on anything else.
+void check_kokkos_arguments(const std::vector<std::string>& kokkos_args) {
+  for (const std::string& a : kokkos_args) {
+    for (const char* option : {"--kokkos-threads=", "--kokkos-num-threads="}) {
+      if (a.rfind(option, 0) != 0) continue;
+      const std::string value = a.substr(std::strlen(option));
+      char* end = nullptr;
+      const long n = std::strtol(value.c_str(), &end, 10);
+      if (value.empty() || *end != '\0' || n < 1 || n > 1000000)
+        throw UsageError{std::string(option, std::strlen(option) - 1) + " expects a positive integer; got '" + value + "'"};
+    }
+  }
 }
 
 // On a GPU build, each rank of a node drives its own GPU: the node-local rank (from a
@@ -246,19 +220,54 @@ int main(int argc, char** argv) {
   int status = 0;
   {
     const mpmflow::ParallelContext context;
-    std::vector<std::string> kokkos_args(argv, argv + argc);
-    const std::string device = choose_device(kokkos_args, context);
-    std::vector<char*> kokkos_argv;
-    for (std::string& a : kokkos_args) kokkos_argv.push_back(&a[0]);
-    int kokkos_argc = static_cast<int>(kokkos_argv.size());
-    Kokkos::initialize(kokkos_argc, kokkos_argv.data());  // removes the --kokkos-* options it recognises
-    {
-      std::vector<std::string> args(kokkos_argv.begin() + 1, kokkos_argv.begin() + kokkos_argc);
-      const bool root = context.is_root();
+    const bool root = context.is_root();
+    // The --kokkos-* options go to Kokkos; the rest to the command line.
+    std::vector<std::string> kokkos_args = {argc > 0 ? argv[0] : "mpmflow"}, args;
+    for (int i = 1; i < argc; ++i)
+      (std::strncmp(argv[i], "--kokkos-", 9) == 0 ? kokkos_args : args).push_back(argv[i]);
+    CommandLine cl;
+    CLI::App app{"mpmflow: a Material Point Method solver for 2D compressible gas dynamics (Kokkos)", "mpmflow"};
+    define_command_line(app, cl);
+    bool parsed = false;
+    try {
+      std::vector<std::string> reversed(args.rbegin(), args.rend());  // CLI11 takes them in reverse
+      app.parse(reversed);
+      check_kokkos_arguments(kokkos_args);
+      parsed = true;
+    } catch (const CLI::ParseError& e) {
+      // --help and --version arrive here too, with exit code 0.
+      std::ostringstream out, err;
+      status = app.exit(e, out, err) == 0 ? 0 : kExitUsage;
+      if (root) {
+        std::cout << out.str();
+        if (status != 0) std::cerr << "mpmflow: error: " << err.str();
+      }
+    } catch (const UsageError& e) {
+      if (root) std::cerr << "mpmflow: error: " << e.message << "\n";
+      status = kExitUsage;
+    }
+    if (parsed) {
+      const bool run = app.got_subcommand("run");
+      std::string device;
+      std::vector<char*> kokkos_argv;
+      int kokkos_argc = 0;
+      if (run) {
+        device = choose_device(kokkos_args, context);
+        for (std::string& a : kokkos_args) kokkos_argv.push_back(&a[0]);
+        kokkos_argc = static_cast<int>(kokkos_argv.size());
+        Kokkos::initialize(kokkos_argc, kokkos_argv.data());
+      }
       try {
-        status = run(parse_command_line(args), context, device);
+        if (run) {
+          status = run_case(cl, context, device);
+        } else if (app.got_subcommand("case")) {
+          const mpmflow::CaseConfig config = load_case_on_root(cl, context);
+          if (root) std::cout << mpmflow::effective_case_json(config) << "\n";
+        } else {
+          if (root) status = print_riemann_solution(cl);
+        }
       } catch (const UsageError& e) {
-        if (root) std::cerr << "mpmflow: error: " << e.message << "\n" << kUsage;
+        if (root) std::cerr << "mpmflow: error: " << e.message << "\n";
         status = kExitUsage;
       } catch (const mpmflow::ConfigError& e) {
         if (root) std::cerr << "mpmflow: error: " << e.what() << "\n";
@@ -276,8 +285,8 @@ int main(int argc, char** argv) {
         if (context.distributed()) MPI_Abort(context.comm(), status);
 #endif
       }
+      if (run) Kokkos::finalize();
     }
-    Kokkos::finalize();
   }
 #ifdef MPMFLOW_HAVE_MPI
   MPI_Finalize();

@@ -161,6 +161,8 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
     h5::write_attribute(file, "step", static_cast<double>(step));
     h5::write_attribute(file, "num_ranks", static_cast<double>(context_.size()));
     h5::write_string_attribute(file, "case", case_name_);
+    // The case as it ran (mpmflow case prints the same): what produced this file.
+    h5::write_string_attribute(file, "effective_case", effective_case_json(solver.config()));
     h5::write_string_attribute(file, "layout",
                                "particles: one 1D dataset per scalar field, position (N, 2) [x, y], velocity "
                                "(N, 3) [vx, vy, 0], vertices (N) 0..N-1; grid: node arrays of nodes_x x nodes_y "

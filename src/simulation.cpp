@@ -58,6 +58,26 @@ void print_timer_table(std::ostream& log, const PhaseTimers& timers, long steps)
 
 }  // namespace
 
+std::string version_description() {
+  std::ostringstream out;
+  const int kv = KOKKOS_VERSION;
+  out << "mpmflow " << MPMFLOW_VERSION << " (" << MPMFLOW_GIT_COMMIT << "), "
+      << (sizeof(real_t) == 8 ? "double" : "single") << " precision\n"
+      << "Kokkos " << kv / 10000 << "." << (kv / 100) % 100 << "." << kv % 100 << ", execution space "
+      << ExecutionSpace::name() << "\n";
+#ifdef MPMFLOW_HAVE_MPI
+  out << "MPI: on";
+#else
+  out << "MPI: off";
+#endif
+#ifdef MPMFLOW_HAVE_HDF5
+  out << ", HDF5: on";
+#else
+  out << ", HDF5: off";
+#endif
+  return out.str();
+}
+
 std::string build_description() {
   std::ostringstream out;
   const int kv = KOKKOS_VERSION;

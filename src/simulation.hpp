@@ -37,6 +37,9 @@ void check_case_supported(const CaseConfig& config);
 RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, std::ostream& log);
 
 // Banner lines: version, Kokkos version and execution space, threads, ranks.
+// The version and build (Kokkos version and execution space, MPI, HDF5), without touching Kokkos:
+// what --version prints.
+std::string version_description();
 std::string build_description();
 
 }  // namespace mpmflow

@@ -108,8 +108,44 @@ TEST_F(CommandLine, BadOverrideAndUsageErrorsAreRejected) {
   write_case("case.json", sod_text_);
   expect_rejected("run case.json --set domain/cells_x=-3", "case.json: /domain/cells_x: expected an integer");
   expect_rejected("run case.json --set cells_x", "expected PATH=VALUE");
-  expect_rejected("run case.json --frobnicate", "unknown option '--frobnicate'");
-  expect_rejected("run", "run needs a case file");
+  expect_rejected("run case.json --frobnicate", "mpmflow: error: The following argument was not expected: --frobnicate");
+  expect_rejected("run", "mpmflow: error: CASE is required");
+  expect_rejected("run case.json --progress-interval soon", "--progress-interval");
+  expect_rejected("run case.json --kokkos-threads=abc", "--kokkos-threads expects a positive integer; got 'abc'");
+  expect_rejected("", "A subcommand is required");
+  expect_rejected("riemann --left 1,0 --right 0.125,0,0.1 --x0 0.5 --time 0.2", "--left");
+}
+
+// Each subcommand has its own --help (exit 0), and neither --help nor --version initialises Kokkos
+// (whose own help and OpenMP binding warnings would otherwise come first).
+TEST_F(CommandLine, HelpAndVersionExitZeroWithoutKokkos) {
+  for (const char* arguments : {"--help", "run --help", "case --help", "riemann --help", "--version"}) {
+    const CommandResult r = run_mpmflow(arguments, dir_);
+    EXPECT_EQ(r.exit_code, 0) << arguments << "\n" << r.output;
+    EXPECT_EQ(r.output.find("Kokkos::OpenMP"), std::string::npos) << arguments << "\n" << r.output;
+    EXPECT_EQ(r.output.find("--kokkos-help"), std::string::npos) << arguments << "\n" << r.output;
+    EXPECT_EQ(r.output.find("warning"), std::string::npos) << arguments << "\n" << r.output;
+  }
+  EXPECT_NE(run_mpmflow("run --help", dir_).output.find("--progress-interval"), std::string::npos);
+  EXPECT_NE(run_mpmflow("riemann --help", dir_).output.find("--x0"), std::string::npos);
+}
+
+// `mpmflow case` prints the case as it would run, with every default, and that text is itself a
+// case giving the same text again.
+TEST_F(CommandLine, CasePrintsTheEffectiveCase) {
+  write_case("case.json", sod_text_);
+  const CommandResult r = run_mpmflow("case case.json --set domain/cells_x=37", dir_);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("\"cells_x\": 37"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("\"shape_function\": \"gimp\""), std::string::npos) << r.output;  // a default
+  EXPECT_NE(r.output.find("\"cfl\": 0.5"), std::string::npos) << r.output;
+  write_case("effective.json", r.output);
+  const CommandResult again = run_mpmflow("case effective.json", dir_);
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_EQ(again.output, r.output);
+  const CommandResult bad = run_mpmflow("case case.json --set time/cfl=3", dir_);
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.output.find("case.json: /time/cfl: expected a number in (0, 1]"), std::string::npos) << bad.output;
 }
 
 #ifdef MPMFLOW_HAVE_HDF5
