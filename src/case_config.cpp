@@ -42,12 +42,17 @@ struct Bounds {
 // Reads one JSON object, remembering which keys were used so that leftovers can be rejected.
 class ObjectReader {
  public:
-  ObjectReader(const json& object, std::string source, std::string path)
-      : object_(object), source_(std::move(source)), path_(std::move(path)) {
+  // `keys`, when given, collects every path looked up (array indices as "*"): the parser's table
+  // of keys (case_file_keys).
+  ObjectReader(const json& object, std::string source, std::string path, std::set<std::string>* keys = nullptr)
+      : object_(object), source_(std::move(source)), path_(std::move(path)), keys_(keys) {
     if (!object_.is_object()) fail(path_.empty() ? "/" : path_, "an object", object_);
   }
 
-  bool has(const std::string& key) const { return object_.contains(key); }
+  bool has(const std::string& key) const {
+    record(key);
+    return object_.contains(key);
+  }
 
   double number(const std::string& key, const Bounds& bounds) {
     const json& v = require(key);
@@ -113,7 +118,11 @@ class ObjectReader {
     optional_choice(key, target, EnumNames<Enum>::table);
   }
 
-  ObjectReader object(const std::string& key) { return ObjectReader(require(key), source_, at(key)); }
+  ObjectReader object(const std::string& key) { return ObjectReader(require(key), source_, at(key), keys_); }
+  // A reader for element `index` of the array at `key` (already read with array()).
+  ObjectReader element(const std::string& key, size_t index) {
+    return ObjectReader(object_.at(key).at(index), source_, at(key) + "/" + std::to_string(index), keys_);
+  }
 
   const json& array(const std::string& key) {
     const json& v = require(key);
@@ -137,6 +146,7 @@ class ObjectReader {
 
  private:
   const json& require(const std::string& key) {
+    record(key);
     used_.insert(key);
     if (!object_.contains(key))
       throw ConfigError(source_ + ": " + at(key) + ": required key is missing");
@@ -149,9 +159,20 @@ class ObjectReader {
     return hint + ")";
   }
 
+  void record(const std::string& key) const {
+    if (!keys_) return;
+    std::string path;  // at(key) with each array index as "*"
+    std::istringstream segments(at(key));
+    for (std::string segment; std::getline(segments, segment, '/');)
+      if (!segment.empty())
+        path += "/" + (segment.find_first_not_of("0123456789") == std::string::npos ? std::string("*") : segment);
+    keys_->insert(path);
+  }
+
   const json& object_;
   std::string source_;
   std::string path_;
+  std::set<std::string>* keys_;
   std::set<std::string> used_;
 };
 
@@ -304,11 +325,12 @@ void read_boundary(ObjectReader& boundaries, const std::string& side, BoundaryTy
   r.finish();
 }
 
-CaseConfig parse_document(const json& doc, const std::string& source, PointsFiles* points_files) {
+CaseConfig parse_document(const json& doc, const std::string& source, PointsFiles* points_files,
+                          std::set<std::string>* keys = nullptr) {
   const std::filesystem::path case_directory = std::filesystem::path(source).parent_path();
   CaseConfig cfg;
   cfg.source = source;
-  ObjectReader root(doc, source, "");
+  ObjectReader root(doc, source, "", keys);
 
   cfg.name = root.string("name");
   if (root.has("description")) cfg.description = root.string("description");  // free text, echoed in the banner
@@ -383,7 +405,7 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     const json& obstacles = root.array("obstacles");
     for (size_t i = 0; i < obstacles.size(); ++i) {
       const std::string where = "/obstacles/" + std::to_string(i);
-      ObjectReader r(obstacles[i], source, where);
+      ObjectReader r = root.element("obstacles", i);
       cfg.obstacles.push_back(read_obstacle(r, where, cfg.domain, case_directory, points_files));
     }
   }
@@ -413,7 +435,7 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     if (r.has("regions")) {
       const json& regions = r.array("regions");
       for (size_t i = 0; i < regions.size(); ++i) {
-        ObjectReader region(regions[i], source, r.at("regions") + "/" + std::to_string(i));
+        ObjectReader region = r.element("regions", i);
         Region reg;
         const auto xr = read_range(region, "x");
         const auto yr = read_range(region, "y");
@@ -487,6 +509,34 @@ CaseConfig parse_case(const std::string& json_text, const std::string& source, P
   CaseConfig config = parse_document(doc, source, points_files);
   config.document = doc.dump();
   return config;
+}
+
+std::set<std::string> case_file_keys() {
+  // A case with every optional object and key the parser knows of, one obstacle of each type.
+  const char* every_key = R"({
+    "name": "keys", "description": "",
+    "domain": {"x": [0, 4], "y": [0, 2], "cells_x": 8, "cells_y": 4},
+    "physics": {"gamma": 1.4, "artificial_viscosity": {"c0": 1, "c1": 1}},
+    "time": {"end": 1, "cfl": 0.5, "max_steps": 0},
+    "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"}, "bottom": {"type": "slip_wall"},
+                   "top": {"type": "far_field"}, "particle_supply": "open"},
+    "free_stream": {"density": 1.4, "pressure": 1, "velocity": [1, 0]},
+    "obstacles": [{"type": "circle", "centre": [1, 1], "radius": 0.1},
+                  {"type": "rectangle", "x": [2, 2.2], "y": [0.5, 0.7]},
+                  {"type": "polygon", "file": "outline.dat", "scale": 0.1, "angle_of_attack_degrees": 1,
+                   "translation": [3, 1]}],
+    "particles": {"placement": "regular", "per_cell": [2, 2], "seed": 1},
+    "initial_state": {"background": {"density": 1, "pressure": 1, "velocity": [0, 0]},
+                      "regions": [{"x": [0, 1], "y": [0, 1], "density": 1, "pressure": 1, "velocity": [0, 0]}]},
+    "output": {"directory": "out", "snapshots": 1, "checkpoint_interval": 0, "checkpoints_kept": 2},
+    "decomposition": {"axis": "x", "balance_interval": 0},
+    "numerics": {"reorder_interval": 0, "p2g": "automatic", "shape_function": "gimp", "fused_kernels": true}
+  })";
+  PointsFiles outline;
+  outline.files["outline.dat"] = {{0, 0}, {1, 0}, {0.5, 0.5}};
+  std::set<std::string> keys;
+  parse_document(json::parse(every_key), "keys.json", &outline, &keys);
+  return keys;
 }
 
 namespace {

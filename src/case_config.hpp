@@ -5,6 +5,7 @@
 #include <array>
 #include <stdexcept>
 #include <map>
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -176,6 +177,11 @@ std::string load_case_document(const std::string& path, const std::vector<std::s
 // against its directory). Points files come from `points_files` when it holds them; those read
 // from disk are added to it.
 CaseConfig parse_case(const std::string& json_text, const std::string& source, PointsFiles* points_files = nullptr);
+
+// Every key path the parser reads ("/domain/cells_x", "/obstacles/*/radius": array elements as
+// "*"), objects included: the parser's own table of keys, against which the JSON Schema of case
+// files (cases/mpmflow_case.schema.json) is checked.
+std::set<std::string> case_file_keys();
 
 // The case as it runs: its document (after --set) with every key the parser reads and the case
 // leaves out set to the default it took, in canonical order (2-space indented JSON). Parsing the

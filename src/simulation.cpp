@@ -58,13 +58,17 @@ void print_timer_table(std::ostream& log, const PhaseTimers& timers, long steps)
 
 }  // namespace
 
-std::string version_description() {
+namespace {
+// The version and build; with the execution space's concurrency, which needs Kokkos initialised.
+std::string describe_build(bool with_concurrency) {
   std::ostringstream out;
   const int kv = KOKKOS_VERSION;
   out << "mpmflow " << MPMFLOW_VERSION << " (" << MPMFLOW_GIT_COMMIT << "), "
       << (sizeof(real_t) == 8 ? "double" : "single") << " precision\n"
       << "Kokkos " << kv / 10000 << "." << (kv / 100) % 100 << "." << kv % 100 << ", execution space "
-      << ExecutionSpace::name() << "\n";
+      << ExecutionSpace::name();
+  if (with_concurrency) out << ", concurrency " << ExecutionSpace().concurrency();
+  out << "\n";
 #ifdef MPMFLOW_HAVE_MPI
   out << "MPI: on";
 #else
@@ -77,26 +81,10 @@ std::string version_description() {
 #endif
   return out.str();
 }
+}  // namespace
 
-std::string build_description() {
-  std::ostringstream out;
-  const int kv = KOKKOS_VERSION;
-  out << "mpmflow " << MPMFLOW_VERSION << " (" << MPMFLOW_GIT_COMMIT << "), "
-      << (sizeof(real_t) == 8 ? "double" : "single") << " precision\n"
-      << "Kokkos " << kv / 10000 << "." << (kv / 100) % 100 << "." << kv % 100 << ", execution space "
-      << ExecutionSpace::name() << ", concurrency " << ExecutionSpace().concurrency() << "\n";
-#ifdef MPMFLOW_HAVE_MPI
-  out << "MPI: on";
-#else
-  out << "MPI: off";
-#endif
-#ifdef MPMFLOW_HAVE_HDF5
-  out << ", HDF5: on";
-#else
-  out << ", HDF5: off";
-#endif
-  return out.str();
-}
+std::string version_description() { return describe_build(false); }
+std::string build_description() { return describe_build(true); }
 
 void check_case_supported(const CaseConfig& config) {
 #ifndef MPMFLOW_HAVE_HDF5

@@ -2,8 +2,13 @@
 // with a message naming the file, the JSON path and what was expected.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
+#include <iterator>
+#include <set>
 #include <string>
+
+#include <nlohmann/json.hpp>
 
 #include "case_config.hpp"
 
@@ -116,4 +121,73 @@ TEST(CaseConfig, OverridesApplyBeforeValidation) {
 }
 
 }  // namespace
+}  // namespace mpmflow
+
+namespace mpmflow {
+
+// ---- The JSON Schema of case files ---------------------------------------------------------------
+
+namespace {
+
+// The key paths a JSON Schema describes: every property, nested objects' properties under it,
+// array items under "*"; "$ref"s to "#/$defs/NAME" followed.
+void schema_paths(const nlohmann::json& root, const nlohmann::json& schema, const std::string& path,
+                  std::set<std::string>& paths) {
+  if (schema.contains("$ref")) {
+    const std::string ref = schema["$ref"];
+    const std::string prefix = "#/$defs/";
+    ASSERT_EQ(ref.rfind(prefix, 0), 0u) << ref;
+    schema_paths(root, root["$defs"][ref.substr(prefix.size())], path, paths);
+  }
+  if (schema.contains("properties"))
+    for (auto it = schema["properties"].begin(); it != schema["properties"].end(); ++it) {
+      paths.insert(path + "/" + it.key());
+      schema_paths(root, it.value(), path + "/" + it.key(), paths);
+    }
+  if (schema.contains("items") && schema["items"].is_object()) schema_paths(root, schema["items"], path + "/*", paths);
+}
+
+std::set<std::string> difference(const std::set<std::string>& a, const std::set<std::string>& b) {
+  std::set<std::string> d;
+  std::set_difference(a.begin(), a.end(), b.begin(), b.end(), std::inserter(d, d.end()));
+  return d;
+}
+
+std::string joined(const std::set<std::string>& keys) {
+  std::string text;
+  for (const std::string& k : keys) text += " " + k;
+  return text;
+}
+
+}  // namespace
+
+// cases/mpmflow_case.schema.json names exactly the keys the parser reads: a key added to one and
+// not the other fails here. (Scalar array elements, such as per_cell's, are no keys of either.)
+TEST(Schema, MatchesTheParsersKeys) {
+  std::ifstream in(std::string(MPMFLOW_SOURCE_DIR) + "/cases/mpmflow_case.schema.json");
+  ASSERT_TRUE(in) << "cases/mpmflow_case.schema.json";
+  const nlohmann::json schema = nlohmann::json::parse(in);
+  std::set<std::string> described;
+  schema_paths(schema, schema, "", described);
+  std::set<std::string> parsed;
+  for (const std::string& key : case_file_keys())
+    if (key.size() < 2 || key.compare(key.size() - 2, 2, "/*") != 0) parsed.insert(key);  // not "/obstacles/*"
+  EXPECT_TRUE(difference(parsed, described).empty()) << "read by the parser, missing from the schema:"
+                                                     << joined(difference(parsed, described));
+  EXPECT_TRUE(difference(described, parsed).empty()) << "in the schema, not read by the parser:"
+                                                     << joined(difference(described, parsed));
+  EXPECT_GT(parsed.size(), 50u);
+}
+
+// The effective case of every shipped case (what `mpmflow case` prints and every output stores) is
+// a case that gives the same effective case again.
+TEST(EffectiveCase, RoundTripsForEveryShippedCase) {
+  for (const char* name : {"sod", "cylinder_mach3", "step_mach3", "aerofoil_transonic"}) {
+    const std::string path = std::string(MPMFLOW_SOURCE_DIR) + "/cases/" + name + ".json";
+    const CaseConfig config = load_case_file(path);
+    const std::string effective = effective_case_json(config);
+    EXPECT_EQ(effective_case_json(parse_case(effective, path)), effective) << name;
+  }
+}
+
 }  // namespace mpmflow
