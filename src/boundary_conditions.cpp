@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include <Kokkos_ScatterView.hpp>
+
 #include "gas_physics.hpp"
 
 namespace mpmflow {
@@ -143,6 +145,36 @@ void remove_inward_component(const ObstacleGrid& obstacles, const NodeFieldsView
       });
 }
 
+// The force the gas exerts on each obstacle: the inward component of the force that eqs. 21-22
+// are about to remove on its nodes, summed over the nodes this slab owns. (Each particle's
+// velocity changes by dt times the interpolated force per unit mass, so the gas's momentum changes
+// by dt times the sum of the node forces: what the condition removes, the body takes.)
+void add_obstacle_forces(const ObstacleGrid& obstacles, const NodeFieldsView& state, ObstacleForces& forces) {
+  const index_t count = obstacles.num_obstacle_nodes();
+  forces.x.assign(static_cast<size_t>(obstacles.num_obstacles), 0.0);
+  forces.y.assign(static_cast<size_t>(obstacles.num_obstacles), 0.0);
+  if (count == 0) return;
+  const IndexView nodes = obstacles.obstacle_nodes, of_node = obstacles.obstacle_of_node;
+  const NodeFieldsView normals = obstacles.obstacle_normals;
+  for (int o = 0; o < obstacles.num_obstacles; ++o) {
+    for (int axis = 0; axis < 2; ++axis) {
+      double sum = 0;
+      Kokkos::parallel_reduce(
+          "obstacle_force", Kokkos::RangePolicy<ExecutionSpace>(0, count),
+          KOKKOS_LAMBDA(const index_t k, double& total) {
+            if (of_node(k) != o) return;
+            const index_t node = nodes(k);
+            const real_t nx = normals(k, 0), ny = normals(k, 1);
+            const real_t f_n = state(node, GridFields::force_x) * nx + state(node, GridFields::force_y) * ny;
+            const real_t inward = (f_n - (f_n < 0 ? -f_n : f_n)) / 2;  // f.n where it points into the obstacle
+            total += inward * (axis == 0 ? nx : ny);
+          },
+          sum);
+      (axis == 0 ? forces.x : forces.y)[static_cast<size_t>(o)] = sum;
+    }
+  }
+}
+
 }  // namespace
 
 GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const GridSlab& slab,
@@ -152,11 +184,12 @@ GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const G
       free_stream_(config.boundaries.free_stream),
       obstacles_(obstacles) {}
 
-void GridBoundaryConditions::apply_to_momentum_and_force(const NodeFieldsView& state) const {
+void GridBoundaryConditions::apply_to_momentum_and_force(const NodeFieldsView& state, ObstacleForces* forces) const {
   apply_side_pressure(slab_, side_type_, free_stream_, state);
   apply_inflow_sides(slab_, side_type_, free_stream_, state, GridFields::momentum_x, state, /*with_force=*/true);
   apply_slip_walls(slab_, side_type_, state, GridFields::momentum_x);
   apply_slip_walls(slab_, side_type_, state, GridFields::force_x);
+  if (forces) add_obstacle_forces(obstacles_, state, *forces);
   remove_inward_component(obstacles_, state, GridFields::momentum_x);
   remove_inward_component(obstacles_, state, GridFields::force_x);
 }
@@ -180,12 +213,38 @@ ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab&
   std::copy(types.begin(), types.end(), side_type);
 }
 
-void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt) {
+void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
+                    ObstacleForces* forces) {
   const ParticleBoundaries rules = boundaries;
   const ParticleState pt = particles;
+  const size_t num_obstacles = forces ? forces->x.size() : 0;
+  if (num_obstacles == 0) {
+    Kokkos::parallel_for(
+        "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
+          real_t ix, iy;
+          index_t o;
+          rules.move(p, dt, pt, ix, iy, o);
+        });
+    return;
+  }
+  // (obstacle, {x, y}); few particles touch an obstacle in a step, so a ScatterView is cheap here.
+  Kokkos::View<double**, DeviceType> impulse("obstacle_particle_impulse", num_obstacles, 2);
+  auto scatter = Kokkos::Experimental::create_scatter_view(impulse);
   Kokkos::parallel_for(
-      "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count),
-      KOKKOS_LAMBDA(const index_t p) { rules.move(p, dt, pt); });
+      "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
+        real_t ix = 0, iy = 0;
+        index_t o = 0;
+        if (!rules.move(p, dt, pt, ix, iy, o)) return;
+        auto access = scatter.access();
+        access(o, 0) += ix;
+        access(o, 1) += iy;
+      });
+  Kokkos::Experimental::contribute(impulse, scatter);
+  auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), impulse);
+  for (size_t o = 0; o < num_obstacles; ++o) {
+    forces->x[o] += host(o, 0) / dt;
+    forces->y[o] += host(o, 1) / dt;
+  }
 }
 
 }  // namespace mpmflow

@@ -48,13 +48,20 @@ struct DomainBox {
 //   inertia of the side nodes, whose acceleration is f / (m + m_outside);
 // - slip wall: the wall-normal component is removed.
 // Then, on nodes inside an obstacle, the inward normal component is removed (eqs. 21-22).
+// The force the gas exerts on each obstacle (case order) in one step, as the grid transmits it,
+// summed over the nodes this slab owns.
+struct ObstacleForces {
+  std::vector<double> x, y;
+};
+
 class GridBoundaryConditions {
  public:
   GridBoundaryConditions() = default;
   GridBoundaryConditions(const CaseConfig& config, const GridSlab& slab, const ObstacleGrid& obstacles);
 
-  // Step 4: momentum and force columns of `state` (the node mass is its mass column).
-  void apply_to_momentum_and_force(const NodeFieldsView& state) const;
+  // Step 4: momentum and force columns of `state` (the node mass is its mass column); with
+  // `forces`, the force on each obstacle that the step transmits.
+  void apply_to_momentum_and_force(const NodeFieldsView& state, ObstacleForces* forces = nullptr) const;
   // Step 9: the remapped momentum in columns column_x, column_x + 1 of `momentum`.
   void apply_to_momentum(const NodeFieldsView& momentum, int column_x, const NodeFieldsView& state) const;
 
@@ -83,15 +90,22 @@ struct ParticleBoundaries {
   ParticleBoundaries(const CaseConfig& config, const GridSlab& slab, const ObstacleGrid& obstacle_grid);
 
   // Moves particle p by dt V-bar and applies the rules above.
-  KOKKOS_INLINE_FUNCTION void move(index_t p, real_t dt, const ParticleState& pt) const;
+  // Moves particle p; where an obstacle takes its inward normal velocity, returns true with the
+  // momentum it took (the particle's loss: the gas's impulse on the obstacle) and the obstacle.
+  KOKKOS_INLINE_FUNCTION bool move(index_t p, real_t dt, const ParticleState& pt, real_t& impulse_x, real_t& impulse_y,
+                                   index_t& obstacle) const;
 };
 
 // Algorithm 1, step 11: every particle moved by dt V-bar, with the rules above.
-void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt);
+// With `forces`, adds to each obstacle's force the momentum its surface took from the particles
+// over dt (the inward normal velocity of those that entered it).
+void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
+                    ObstacleForces* forces = nullptr);
 
 // ---- inline definitions --------------------------------------------------------------------------
 
-KOKKOS_INLINE_FUNCTION void ParticleBoundaries::move(index_t p, real_t dt, const ParticleState& pt) const {
+KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::move(index_t p, real_t dt, const ParticleState& pt, real_t& impulse_x,
+                                                     real_t& impulse_y, index_t& obstacle) const {
   real_t x = pt.position_x(p) + dt * pt.grid_velocity_x(p);
   real_t y = pt.position_y(p) + dt * pt.grid_velocity_y(p);
   // Slip walls: mirror, and keep no velocity out of the domain.
@@ -112,10 +126,11 @@ KOKKOS_INLINE_FUNCTION void ParticleBoundaries::move(index_t p, real_t dt, const
     if (pt.velocity_y(p) > 0) pt.velocity_y(p) = 0;
   }
   // Open sides: whatever is still outside has left the domain through one of them.
+  bool hit = false;
   if (domain.outside(x, y)) {
     pt.position_x(p) = x;
     pt.position_y(p) = y;
-    return;
+    return hit;
   }
   if (has_obstacles && cell_near_obstacle(grid.cell_of(x, y, /*include_ghosts=*/true))) {
     const SignedDistance sd = obstacles(x, y);
@@ -126,12 +141,17 @@ KOKKOS_INLINE_FUNCTION void ParticleBoundaries::move(index_t p, real_t dt, const
       if (vn < 0) {
         pt.velocity_x(p) -= vn * sd.normal_x;
         pt.velocity_y(p) -= vn * sd.normal_y;
+        impulse_x = pt.mass(p) * vn * sd.normal_x;  // into the obstacle
+        impulse_y = pt.mass(p) * vn * sd.normal_y;
+        obstacle = sd.obstacle;
+        hit = true;
       }
     }
   }
   domain.clamp(x, y);  // an obstacle touching a side, a mirror
   pt.position_x(p) = x;
   pt.position_y(p) = y;
+  return hit;
 }
 
 }  // namespace mpmflow

@@ -227,10 +227,12 @@ Polygon read_points_file_through(const std::string& path, PointsFiles* points_fi
 }
 
 ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const DomainConfig& domain,
+                             const std::pair<double, double>& flow_direction,
                              const std::filesystem::path& case_directory, PointsFiles* points_files) {
   ObstacleConfig obstacle;
   obstacle.shape = r.choice<ObstacleShape>("type");
   obstacle.description = where + " (" + to_string(obstacle.shape) + ")";
+  r.optional_number("reference_length", obstacle.reference_length, Bounds::positive());
   double x_lo, x_hi, y_lo, y_hi;  // bounding box
   if (obstacle.shape == ObstacleShape::circle) {
     const auto centre = read_pair(r, "centre", "an array [x, y] of two numbers");
@@ -302,6 +304,8 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
         << "]; its bounding box is [" << x_lo << ", " << x_hi << "] x [" << y_lo << ", " << y_hi << "]";
     throw ConfigError(msg.str());
   }
+  // The coefficients' length, of the obstacle as the case gives it (before the move below).
+  obstacle.reference_length = obstacle_reference_length(obstacle, flow_direction.first, flow_direction.second);
   // A rectangle side on a domain side is not a surface the gas meets: moved out of the domain, it
   // can never be the nearest surface that a particle entering near it is pushed back to.
   if (obstacle.shape == ObstacleShape::rectangle) {
@@ -315,6 +319,13 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
     }
   }
   return obstacle;
+}
+
+// The unit vector along the free stream's velocity; +x without a moving free stream.
+std::pair<double, double> free_stream_direction(const BoundaryConfig& b) {
+  const double vx = b.free_stream.velocity_x, vy = b.free_stream.velocity_y, speed = std::hypot(vx, vy);
+  if (!b.has_free_stream || !(speed > 0)) return {1.0, 0.0};
+  return {vx / speed, vy / speed};
 }
 
 // A side's boundary type into `type`, when the case names one.
@@ -406,7 +417,8 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     for (size_t i = 0; i < obstacles.size(); ++i) {
       const std::string where = "/obstacles/" + std::to_string(i);
       ObjectReader r = root.element("obstacles", i);
-      cfg.obstacles.push_back(read_obstacle(r, where, cfg.domain, case_directory, points_files));
+      cfg.obstacles.push_back(
+          read_obstacle(r, where, cfg.domain, free_stream_direction(cfg.boundaries), case_directory, points_files));
     }
   }
 
@@ -511,6 +523,21 @@ CaseConfig parse_case(const std::string& json_text, const std::string& source, P
   return config;
 }
 
+double obstacle_reference_length(const ObstacleConfig& obstacle, double flow_x, double flow_y) {
+  if (obstacle.reference_length > 0) return obstacle.reference_length;
+  if (obstacle.shape == ObstacleShape::circle) return 2 * double(obstacle.radius);
+  // Extent of the vertices along a direction: along the flow, or across it (the flow turned by 90 degrees).
+  const bool across = obstacle.shape == ObstacleShape::rectangle;
+  const double dx = across ? -flow_y : flow_x, dy = across ? flow_x : flow_y;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (size_t v = 0; v < obstacle.vertices_x.size(); ++v) {
+    const double s = obstacle.vertices_x[v] * dx + obstacle.vertices_y[v] * dy;
+    lo = std::min(lo, s);
+    hi = std::max(hi, s);
+  }
+  return hi - lo;
+}
+
 std::set<std::string> case_file_keys() {
   // A case with every optional object and key the parser knows of, one obstacle of each type.
   const char* every_key = R"({
@@ -521,7 +548,7 @@ std::set<std::string> case_file_keys() {
     "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"}, "bottom": {"type": "slip_wall"},
                    "top": {"type": "far_field"}, "particle_supply": "open"},
     "free_stream": {"density": 1.4, "pressure": 1, "velocity": [1, 0]},
-    "obstacles": [{"type": "circle", "centre": [1, 1], "radius": 0.1},
+    "obstacles": [{"type": "circle", "centre": [1, 1], "radius": 0.1, "reference_length": 0.2},
                   {"type": "rectangle", "x": [2, 2.2], "y": [0.5, 0.7]},
                   {"type": "polygon", "file": "outline.dat", "scale": 0.1, "angle_of_attack_degrees": 1,
                    "translation": [3, 1]}],

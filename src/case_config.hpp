@@ -101,7 +101,16 @@ struct ObstacleConfig {
   std::string description;  // "/obstacles/0 (circle)", for messages
   real_t centre_x = 0, centre_y = 0, radius = 0;    // circle
   std::vector<real_t> vertices_x, vertices_y;      // polygon and rectangle, without a repeated closing point
+  // The length drag and lift coefficients are taken on; 0: the obstacle's default (see
+  // obstacle_reference_length).
+  real_t reference_length = 0;
 };
+
+// The length an obstacle's drag and lift coefficients are taken on, with the free stream along
+// the unit vector (flow_x, flow_y): `reference_length` when the case gives one; else a circle's
+// diameter, a rectangle's extent across the flow (a bluff body's frontal height), a polygon's
+// extent along the flow (an aerofoil's chord).
+double obstacle_reference_length(const ObstacleConfig& obstacle, double flow_x, double flow_y);
 
 struct ParticleConfig {
   ParticlePlacement placement = ParticlePlacement::regular;

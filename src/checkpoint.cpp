@@ -63,6 +63,8 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
                       fluxes.data(), context);
     }
     if (!clock.entry_distance.empty()) h5::write_replicated(file, "entry_distance", clock.entry_distance, context);
+    if (!clock.obstacle_impulse.empty())
+      h5::write_replicated(file, "obstacle_impulse", clock.obstacle_impulse, context);
     std::vector<long long> slab_begin(solver.decomposition().cell_begin.begin(), solver.decomposition().cell_begin.end());
     h5::write_replicated(file, "slab_begin", slab_begin, context);
     h5::write_replicated(file, "particles_per_rank", counts, context);
@@ -135,6 +137,8 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
         });
       }
     }
+    if (!config.obstacles.empty() && H5Lexists(file, "obstacle_impulse", H5P_DEFAULT) > 0)
+      clock.obstacle_impulse = h5::read_rows<double>(file, "obstacle_impulse", 0, 2 * config.obstacles.size() + 1, context);
     const size_t num_distances = OpenBoundaries::num_entry_cells(config);
     if (num_distances > 0)
       clock.entry_distance = h5::read_rows<double>(file, "entry_distance", 0, num_distances, context);

@@ -25,6 +25,8 @@ struct RunClock {
   ConservationTotals initial_totals;  // of t = 0, for the drift reports
   double node_mass_threshold = 0;     // the solver's, fixed at t = 0 (restored for a bitwise restart)
   std::vector<double> entry_distance;  // how far the free stream outside the open sides has moved
+  // The obstacles' impulse since the last output: {time, x0, y0, x1, ...}, the same on every rank.
+  std::vector<double> obstacle_impulse;
   // Through the open sides since t = 0: written, each rank's own; read, this rank's own (same rank
   // count: the sums continue bitwise) or, on another rank count, the global ones on rank 0.
   BoundaryFluxes fluxes;

@@ -2,6 +2,8 @@
 
 #include "kernels/blas1.hpp"
 
+#include <cmath>
+
 namespace mpmflow {
 
 ConservationTotals DiagnosticsCalculator::compute(const ParticleState& particles) {
@@ -25,6 +27,27 @@ ConservationTotals DiagnosticsCalculator::compute(const ParticleState& particles
   totals.momentum_y = blas_sum(mv);
   totals.kinetic_energy += 0.5 * blas_dot(mv, vy);
   return totals;
+}
+
+DiagnosticColumns obstacle_force_columns(const CaseConfig& config, const std::vector<double>& mean_forces) {
+  DiagnosticColumns columns;
+  const GasState& inf = config.boundaries.free_stream;
+  const double speed = std::hypot(double(inf.velocity_x), double(inf.velocity_y));
+  const bool coefficients = config.boundaries.has_free_stream && speed > 0;
+  for (size_t k = 0; k < config.obstacles.size(); ++k) {
+    const std::string name = "obstacle" + std::to_string(k) + "_";
+    const double fx = k * 2 + 1 < mean_forces.size() ? mean_forces[2 * k] : 0.0;
+    const double fy = k * 2 + 1 < mean_forces.size() ? mean_forces[2 * k + 1] : 0.0;
+    columns.emplace_back(name + "force_x", fx);
+    columns.emplace_back(name + "force_y", fy);
+    if (!coefficients) continue;
+    const double ux = inf.velocity_x / speed, uy = inf.velocity_y / speed;
+    const double length = config.obstacles[k].reference_length;
+    const double q_times_length = 0.5 * inf.density * speed * speed * length;
+    columns.emplace_back(name + "drag_coefficient", (fx * ux + fy * uy) / q_times_length);
+    columns.emplace_back(name + "lift_coefficient", (-fx * uy + fy * ux) / q_times_length);
+  }
+  return columns;
 }
 
 }  // namespace mpmflow

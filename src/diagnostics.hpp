@@ -1,7 +1,10 @@
 #pragma once
 // Conservation diagnostics over the particles, computed with Kokkos Kernels' BLAS-1 routines.
 #include <string>
+#include <utility>
+#include <vector>
 
+#include "case_config.hpp"
 #include "particles.hpp"
 
 namespace mpmflow {
@@ -72,5 +75,15 @@ class DiagnosticsCalculator {
  private:
   RealView scratch_;  // M .* V, reused by every call
 };
+
+// Named columns of diagnostics.csv and the snapshots' /diagnostics beyond the totals and fluxes.
+using DiagnosticColumns = std::vector<std::pair<std::string, double>>;
+
+// The force on each obstacle k of the case (mean_forces: x and y of each, in case order) as
+// columns obstacle<k>_force_x, obstacle<k>_force_y, and where the free stream moves,
+// obstacle<k>_drag_coefficient and obstacle<k>_lift_coefficient: the force along the free stream
+// and along it turned 90 degrees counter-clockwise, over q_inf L with q_inf = rho_inf |v_inf|^2 / 2
+// and L the obstacle's reference length (per unit depth: the domain is 2D).
+DiagnosticColumns obstacle_force_columns(const CaseConfig& config, const std::vector<double>& mean_forces);
 
 }  // namespace mpmflow

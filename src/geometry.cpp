@@ -124,9 +124,12 @@ HostObstacleSet make_host_obstacle_set(const std::vector<ObstacleConfig>& obstac
   set.circles = HostObstacleSet::RealColumns("obstacle_circles", num_circles, 3);
   set.edges = HostObstacleSet::RealColumns("obstacle_edges", num_edges, 4);
   set.polygon_edges = HostObstacleSet::Offsets("obstacle_polygon_edges", num_polygons + 1);
+  set.case_index = HostObstacleSet::Offsets("obstacle_case_index", num_circles + num_polygons);
   index_t edge = 0;
-  for (const ObstacleConfig& o : obstacles) {
+  for (size_t index = 0; index < obstacles.size(); ++index) {
+    const ObstacleConfig& o = obstacles[index];
     if (o.shape == ObstacleShape::circle) {
+      set.case_index(set.num_circles) = static_cast<index_t>(index);
       set.circles(set.num_circles, 0) = o.centre_x;
       set.circles(set.num_circles, 1) = o.centre_y;
       set.circles(set.num_circles, 2) = o.radius;
@@ -138,6 +141,7 @@ HostObstacleSet make_host_obstacle_set(const std::vector<ObstacleConfig>& obstac
     // Counter-clockwise, so that an edge's right-hand normal points out of the obstacle.
     if (signed_area(polygon) < 0) std::reverse(polygon.begin(), polygon.end());
     set.polygon_edges(set.num_polygons) = edge;
+    set.case_index(num_circles + set.num_polygons) = static_cast<index_t>(index);
     for (size_t v = 0; v < polygon.size(); ++v, ++edge) {
       const Point& a = polygon[v];
       const Point& b = polygon[(v + 1) % polygon.size()];
@@ -157,6 +161,7 @@ DeviceObstacleSet copy_to_device(const HostObstacleSet& host) {
   device.circles = Kokkos::create_mirror_view_and_copy(MemorySpace(), host.circles);
   device.edges = Kokkos::create_mirror_view_and_copy(MemorySpace(), host.edges);
   device.polygon_edges = Kokkos::create_mirror_view_and_copy(MemorySpace(), host.polygon_edges);
+  device.case_index = Kokkos::create_mirror_view_and_copy(MemorySpace(), host.case_index);
   device.num_circles = host.num_circles;
   device.num_polygons = host.num_polygons;
   return device;
@@ -168,9 +173,11 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   grid.obstacles = copy_to_device(host);
   const GridGeometry& geo = slab.geometry;
   grid.cell_near_obstacle = IndexView("cell_near_obstacle", geo.num_cells());
+  grid.num_obstacles = static_cast<int>(obstacles.size());
   if (host.empty()) {
     grid.obstacle_nodes = IndexView("obstacle_nodes", 0);
     grid.obstacle_normals = NodeFieldsView("obstacle_normals", 0, 2);
+    grid.obstacle_of_node = IndexView("obstacle_of_node", 0);
     return grid;
   }
   // Evaluated once on the host at start-up (the obstacles are at rest).
@@ -199,6 +206,18 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   }
   Kokkos::deep_copy(grid.obstacle_nodes, nodes_host);
   Kokkos::deep_copy(grid.obstacle_normals, normals_host);
+
+  // Which obstacle each node belongs to (the nearest surface), for the forces on each; -1 on nodes
+  // another slab owns.
+  const IndexRange2D owned = slab.index_space(Ownership::owned, Entity::node, Indexing::local);
+  grid.obstacle_of_node = IndexView("obstacle_of_node", nodes.size());
+  auto of_node_host = Kokkos::create_mirror_view(grid.obstacle_of_node);
+  for (size_t k = 0; k < nodes.size(); ++k) {
+    const index_t i = nodes[k] % geo.nodes_x, j = nodes[k] / geo.nodes_x;
+    const bool owned_here = i >= owned.begin_x && i < owned.end_x && j >= owned.begin_y && j < owned.end_y;
+    of_node_host(k) = owned_here ? host(geo.node_x(i), geo.node_y(j)).obstacle : -1;
+  }
+  Kokkos::deep_copy(grid.obstacle_of_node, of_node_host);
 
   // The signed distance is 1-Lipschitz, so inside a cell it differs from a corner value by at most
   // the cell diagonal: a cell whose corners are all farther than that holds no obstacle point.

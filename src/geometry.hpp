@@ -43,6 +43,7 @@ std::string describe_self_intersection(const Polygon& polygon);
 struct SignedDistance {
   real_t distance;            // negative inside an obstacle (eq. 23)
   real_t normal_x, normal_y;  // unit gradient of the distance: the outward normal (eq. 24)
+  index_t obstacle = 0;       // the nearest obstacle, in case order
 };
 
 // The union of the case's obstacles. Distance and normal are those of the nearest obstacle.
@@ -53,6 +54,7 @@ struct ObstacleSet {
   RealColumns circles;      // (circle, {centre x, centre y, radius})
   RealColumns edges;        // (edge, {x0, y0, x1, y1}), counter-clockwise around each polygon
   Offsets polygon_edges;    // polygon k owns edges [polygon_edges(k), polygon_edges(k + 1))
+  Offsets case_index;       // of circle c: case_index(c); of polygon k: case_index(num_circles + k)
   index_t num_circles = 0;
   index_t num_polygons = 0;
 
@@ -64,10 +66,12 @@ struct ObstacleSet {
       const real_t dx = x - circles(c, 0), dy = y - circles(c, 1);
       const real_t r = square_root(dx * dx + dy * dy);
       const real_t d = r - circles(c, 2);
-      if (d < nearest.distance) nearest = r > 0 ? SignedDistance{d, dx / r, dy / r} : SignedDistance{d, 1, 0};
+      if (d < nearest.distance)
+        nearest = r > 0 ? SignedDistance{d, dx / r, dy / r, case_index(c)} : SignedDistance{d, 1, 0, case_index(c)};
     }
     for (index_t k = 0; k < num_polygons; ++k) {
-      const SignedDistance d = polygon_distance(k, x, y);
+      SignedDistance d = polygon_distance(k, x, y);
+      d.obstacle = case_index(num_circles + k);
       if (d.distance < nearest.distance) nearest = d;
     }
     return nearest;
@@ -119,6 +123,10 @@ struct ObstacleGrid {
   IndexView obstacle_nodes;
   NodeFieldsView obstacle_normals;  // (k, {n_x, n_y}) of obstacle_nodes(k)
   IndexView cell_near_obstacle;     // 1 where a corner of the cell lies within a cell diagonal of an obstacle
+  // Of obstacle_nodes(k): the obstacle (case order) whose surface is nearest, or -1 where this
+  // slab does not own the node (each node's reaction is counted by one rank).
+  IndexView obstacle_of_node;
+  int num_obstacles = 0;
 
   index_t num_obstacle_nodes() const { return static_cast<index_t>(obstacle_nodes.extent(0)); }
 };

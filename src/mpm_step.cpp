@@ -29,7 +29,7 @@ void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long 
   }
   {  // 4. boundary conditions on mv and f; obstacles (eqs. 21-22)
     auto t = timers.scope(Phase::boundary_conditions);
-    slab.grid_boundaries().apply_to_momentum_and_force(grid.state);
+    slab.grid_boundaries().apply_to_momentum_and_force(grid.state, &s.obstacle_forces);
   }
   {  // 5. (mv)' = mv + dt f; V-bar = (mv)' / m and A = f / m on the nodes
     auto t = timers.scope(Phase::grid_momentum_update);
@@ -66,7 +66,7 @@ void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long 
   }
   {  // 11. X' = X + dt V-bar; walls, open sides and obstacles
     auto t = timers.scope(Phase::particle_move);
-    move_particles(slab.particle_boundaries(), particles, dt);
+    move_particles(slab.particle_boundaries(), particles, dt, &s.obstacle_forces);
   }
   {  // particles that left through open sides removed (or recycled), the free stream's entered
     auto t = timers.scope(Phase::open_sides);

@@ -18,6 +18,7 @@ struct StepState {
   ParticleMigration& migration;
   OpenBoundaries& open_sides;
   PhaseTimers& timers;
+  ObstacleForces& obstacle_forces;  // of the step, on this slab's nodes
 };
 
 // What a step needs to know besides the state: fixed for a run.

@@ -6,6 +6,8 @@
 #include <stdexcept>
 
 #include "gas_physics.hpp"
+#include <Kokkos_ScatterView.hpp>
+
 #include "kernels/particle_compaction.hpp"
 
 namespace mpmflow {

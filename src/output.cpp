@@ -24,12 +24,14 @@ void write_file_atomically(const std::string& path, const std::string& text) {
   std::filesystem::rename(temporary, path);
 }
 
-void DiagnosticsLog::append(long step, double time, const ConservationTotals& t, const BoundaryFluxes& fluxes) {
+void DiagnosticsLog::append(long step, double time, const ConservationTotals& t, const BoundaryFluxes& fluxes,
+                            const DiagnosticColumns& extra) {
   if (text_.empty()) {
     text_ = "step,time";
     t.for_each_total([&](const char* name, double) { text_ += std::string(",") + name; });
     text_ += ",total_energy";
     fluxes.for_each_flux([&](const std::string& name, double) { text_ += "," + name; });
+    for (const auto& column : extra) text_ += "," + column.first;
     text_ += "\n";
   }
   std::ostringstream line;
@@ -37,6 +39,7 @@ void DiagnosticsLog::append(long step, double time, const ConservationTotals& t,
   t.for_each_total([&](const char*, double value) { line << ',' << value; });
   line << ',' << t.total_energy();
   fluxes.for_each_flux([&](const std::string&, double value) { line << ',' << value; });
+  for (const auto& column : extra) line << ',' << column.second;
   line << '\n';
   text_ += line.str();
   write_file_atomically(path_, text_);
@@ -144,7 +147,8 @@ void SnapshotWriter::resume(int num_written) {
 }
 
 std::string SnapshotWriter::write(int index, long step, double time, const Solver& solver,
-                                  const ConservationTotals& totals, const BoundaryFluxes& fluxes) {
+                                  const ConservationTotals& totals, const BoundaryFluxes& fluxes,
+                                  const DiagnosticColumns& extra) {
   const NodeFieldsView projection = solver.grid_projection();
   const std::string name = file_name(index);
   const std::string path = directory_ + "/" + name;
@@ -175,6 +179,7 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
       totals.for_each_total([&](const char* name, double value) { h5::write_attribute(diag, name, value); });
       h5::write_attribute(diag, "total_energy", totals.total_energy());
       fluxes.for_each_flux([&](const std::string& name, double value) { h5::write_attribute(diag, name.c_str(), value); });
+      for (const auto& column : extra) h5::write_attribute(diag, column.first.c_str(), column.second);
     }
 
     {

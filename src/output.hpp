@@ -21,7 +21,8 @@ void write_file_atomically(const std::string& path, const std::string& text);
 class DiagnosticsLog {
  public:
   explicit DiagnosticsLog(std::string path) : path_(std::move(path)) {}
-  void append(long step, double time, const ConservationTotals& totals, const BoundaryFluxes& fluxes);
+  void append(long step, double time, const ConservationTotals& totals, const BoundaryFluxes& fluxes,
+              const DiagnosticColumns& extra = {});
   // After a restart at `step`: keeps the rows of the file up to that step.
   void resume(long step);
 
@@ -45,7 +46,7 @@ class SnapshotWriter {
   // fields are the particles' mass and momentum projected where the particles are now
   // (Solver::grid_projection); nothing of the solver's state changes.
   std::string write(int index, long step, double time, const Solver& solver, const ConservationTotals& totals,
-                    const BoundaryFluxes& fluxes);
+                    const BoundaryFluxes& fluxes, const DiagnosticColumns& extra = {});
 
   std::string particles_xdmf_path() const;
   std::string grid_xdmf_path() const;

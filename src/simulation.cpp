@@ -164,6 +164,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   if (restarting) {
     solver.set_node_mass_threshold(static_cast<real_t>(restart.clock.node_mass_threshold));
     solver.open_sides().restore(restart.clock.entry_distance, restart.clock.fluxes);
+    solver.restore_obstacle_impulse(restart.clock.obstacle_impulse);
   }
   const bool open_sides = config.boundaries.any_open();
   DiagnosticsCalculator diagnostics(solver.particles().count);
@@ -216,8 +217,10 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 #ifdef MPMFLOW_HAVE_HDF5
     if (!writer) return;
     auto scope = solver.timers().scope(Phase::output);
-    const std::string path = writer->write(next_snapshot, solver.step_count(), t, solver, totals, fluxes);
-    if (diagnostics_log) diagnostics_log->append(solver.step_count(), t, totals, fluxes);
+    // The mean force on each obstacle since the previous output (collective: every rank takes it).
+    const DiagnosticColumns forces = obstacle_force_columns(config, solver.take_mean_obstacle_forces());
+    const std::string path = writer->write(next_snapshot, solver.step_count(), t, solver, totals, fluxes, forces);
+    if (diagnostics_log) diagnostics_log->append(solver.step_count(), t, totals, fluxes, forces);
     log << "  output " << next_snapshot << " at t = " << t << ": " << path << std::endl;
 #else
     (void)t;
@@ -235,6 +238,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     auto scope = solver.timers().scope(Phase::checkpoint);
     RunClock clock{t, solver.step_count(), next_snapshot, summary.initial_totals, solver.node_mass_threshold()};
     clock.entry_distance = solver.open_sides().entry_distance();
+    clock.obstacle_impulse = solver.obstacle_impulse();
     clock.fluxes = solver.open_sides().fluxes();
     const std::string path =
         write_checkpoint(config.output.directory, config.name, solver, clock, config.output.checkpoints_kept);

@@ -130,8 +130,20 @@ void Solver::report_invalid_particle(bool local_invalid) const {
 
 void Solver::advance(real_t dt) {
   particle_steps_ += particles_.count;
-  mpm_step({*slab_, particles_, *transfers_, migration_, open_sides_, timers_}, settings_, dt, step_count_ + 1);
+  mpm_step({*slab_, particles_, *transfers_, migration_, open_sides_, timers_, step_forces_}, settings_, dt,
+           step_count_ + 1);
   ++step_count_;
+  if (!config_.obstacles.empty()) {
+    // Summed over the ranks every step, so that every rank holds the same impulse (checkpoints
+    // store it once).
+    const size_t n = config_.obstacles.size();
+    std::vector<double> forces(2 * n);
+    for (size_t o = 0; o < n; ++o) forces[2 * o] = step_forces_.x[o], forces[2 * o + 1] = step_forces_.y[o];
+    context().sum_in_place(forces.data(), static_cast<int>(forces.size()));
+    if (obstacle_impulse_.empty()) obstacle_impulse_.assign(2 * n + 1, 0.0);
+    obstacle_impulse_[0] += dt;
+    for (size_t k = 0; k < 2 * n; ++k) obstacle_impulse_[k + 1] += forces[k] * dt;
+  }
   const int interval = config_.decomposition.balance_interval;
   if (context().distributed() && interval > 0 && step_count_ % interval == 0) {
     auto t = timers_.scope(Phase::load_balance);
@@ -168,6 +180,15 @@ NodeFieldsView Solver::grid_projection() const {
   transfers_->p2g_output_projection(particles_, projection);
   slab_->halo().sum_shared_nodes(projection, 0, GridFields::num_projection_columns);
   return projection;
+}
+
+std::vector<double> Solver::take_mean_obstacle_forces() {
+  const size_t n = config_.obstacles.size();
+  std::vector<double> mean(2 * n, 0.0);
+  if (!obstacle_impulse_.empty() && obstacle_impulse_[0] > 0)
+    for (size_t k = 0; k < 2 * n; ++k) mean[k] = obstacle_impulse_[k + 1] / obstacle_impulse_[0];
+  obstacle_impulse_.assign(2 * n + 1, 0.0);
+  return mean;
 }
 
 double Solver::step_towards(double t, double target) {

@@ -66,6 +66,13 @@ class Solver {
   // slabs: what grid output shows.
   // Collective. Computed apart: the step's grid fields are left as they are.
   NodeFieldsView grid_projection() const;
+  // The mean force on each obstacle (case order) since the last call (or the start, or the
+  // restart), summed over the ranks: {x, y} per obstacle, in the order x0, y0, x1, y1, ...; zeros
+  // when no step has been taken since. Resets the sums.
+  std::vector<double> take_mean_obstacle_forces();
+  // The sums behind it: {time, impulse x0, impulse y0, ...}, the same on every rank (checkpoints).
+  const std::vector<double>& obstacle_impulse() const { return obstacle_impulse_; }
+  void restore_obstacle_impulse(const std::vector<double>& impulse) { obstacle_impulse_ = impulse; }
   // The case the solver runs (after --set and defaults).
   const CaseConfig& config() const { return config_; }
 
@@ -123,6 +130,8 @@ class Solver {
   std::vector<BalanceReport> balance_reports_;
   long step_count_ = 0;
   long long particle_steps_ = 0;
+  ObstacleForces step_forces_;
+  std::vector<double> obstacle_impulse_;  // since the last take_mean_obstacle_forces
 };
 
 }  // namespace mpmflow

@@ -21,6 +21,10 @@ python3-numpy (scripts/setup.sh installs them).
       particles per grid cell, per output and on average over the last K outputs, against a
       density and a particle count per cell (e.g. the free stream ahead of a body); with the
       --max-*-error options, exits 1 when an error exceeds the given fraction.
+  mpmflow_plot.py forces OUTPUT_DIR [--obstacle K] [--last K] [--out DIR] [--min-drag X] [--max-drag Y]
+      From diagnostics.csv: the drag and lift coefficients of an obstacle (the mean force between
+      outputs over q_inf times its reference length) per output, their mean over the last K
+      outputs, and a PNG of their history; with --min-drag / --max-drag, exits 1 outside them.
   mpmflow_plot.py mass-balance OUTPUT_DIR [--max-residual F]
       From diagnostics.csv: the mass in the domain against the initial mass plus what entered
       minus what left through the open sides, at every output; with --max-residual, exits 1 when
@@ -329,13 +333,7 @@ def region(args):
 
 
 def mass_balance(args):
-    import csv
-    path = os.path.join(args.output_dir, "diagnostics.csv")
-    try:
-        with open(path, newline="") as f:
-            rows = list(csv.DictReader(f))
-    except OSError as e:
-        sys.exit(f"mpmflow_plot: error: {path}: {e.strerror}")
+    path, rows = read_diagnostics(args.output_dir)
     if not rows or "mass_in" not in rows[0]:
         sys.exit(f"mpmflow_plot: error: {path}: expected rows with the columns mass, mass_in and mass_out")
     mass0 = float(rows[0]["mass"])
@@ -351,6 +349,61 @@ def mass_balance(args):
         print(f"FAIL: mass balance residual {worst:.2e} > {args.max_residual:.2e}")
         return 1
     return 0
+
+
+def read_diagnostics(output_dir):
+    import csv
+    path = os.path.join(output_dir, "diagnostics.csv")
+    try:
+        with open(path, newline="") as f:
+            rows = list(csv.DictReader(f))
+    except OSError as e:
+        sys.exit(f"mpmflow_plot: error: {path}: {e.strerror}")
+    return path, rows
+
+
+def forces(args):
+    """Drag and lift coefficient histories of one obstacle from diagnostics.csv: a PNG, the values
+    per output, and their mean over the last K outputs, with optional bounds on the drag."""
+    path, rows = read_diagnostics(args.output_dir)
+    drag_key, lift_key = f"obstacle{args.obstacle}_drag_coefficient", f"obstacle{args.obstacle}_lift_coefficient"
+    if not rows or drag_key not in rows[0]:
+        sys.exit(f"mpmflow_plot: error: {path}: no column {drag_key} (no obstacle {args.obstacle}, or no moving free stream)")
+    # The first row is t = 0, before any step: no force yet.
+    rows = rows[1:]
+    t = np.array([float(r["time"]) for r in rows])
+    drag = np.array([float(r[drag_key]) for r in rows])
+    lift = np.array([float(r[lift_key]) for r in rows])
+    for ti, d, l in zip(t, drag, lift):
+        print(f"t = {ti:8.4f}: drag coefficient {d:.4f}, lift coefficient {l:+.4f}")
+    last = slice(-args.last, None)
+    mean_drag, mean_lift = float(np.mean(drag[last])), float(np.mean(lift[last]))
+    print(f"mean of the last {min(args.last, len(rows))} outputs: drag coefficient {mean_drag:.4f}, "
+          f"lift coefficient {mean_lift:+.4f}")
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(7, 4))
+    ax.plot(t, drag, "o-", ms=3, label="drag coefficient")
+    ax.plot(t, lift, "s-", ms=3, label="lift coefficient")
+    ax.set_xlabel("t")
+    ax.set_title(f"obstacle {args.obstacle}: mean force between outputs")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    os.makedirs(args.out, exist_ok=True)
+    target = os.path.join(args.out, f"obstacle{args.obstacle}_coefficients.png")
+    fig.savefig(target + ".tmp.png", dpi=110)
+    os.replace(target + ".tmp.png", target)
+    print(target)
+    failed = False
+    if args.min_drag is not None and not mean_drag >= args.min_drag:
+        print(f"FAIL: drag coefficient {mean_drag:.4f} < {args.min_drag}")
+        failed = True
+    if args.max_drag is not None and not mean_drag <= args.max_drag:
+        print(f"FAIL: drag coefficient {mean_drag:.4f} > {args.max_drag}")
+        failed = True
+    return 1 if failed else 0
 
 
 def main():
@@ -388,7 +441,16 @@ def main():
     balance = sub.add_parser("mass-balance", help="the mass balance with the open sides, from diagnostics.csv")
     balance.add_argument("output_dir")
     balance.add_argument("--max-residual", type=float)
+    coefficients = sub.add_parser("forces", help="drag and lift coefficient histories of an obstacle (diagnostics.csv)")
+    coefficients.add_argument("output_dir")
+    coefficients.add_argument("--obstacle", type=int, default=0, help="obstacle index in the case (0)")
+    coefficients.add_argument("--last", type=int, default=5, help="mean over the last K outputs (5)")
+    coefficients.add_argument("--out", default="plots", help="directory for the PNG (default: ./plots)")
+    coefficients.add_argument("--min-drag", type=float)
+    coefficients.add_argument("--max-drag", type=float)
     args = parser.parse_args()
+    if args.command == "forces":
+        sys.exit(forces(args))
     if args.command == "fields":
         plot_fields(args)
     elif args.command == "sod":
