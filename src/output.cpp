@@ -1,5 +1,6 @@
 #include "output.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -180,6 +181,35 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
       h5::write_attribute(diag, "total_energy", totals.total_energy());
       fluxes.for_each_flux([&](const std::string& name, double value) { h5::write_attribute(diag, name.c_str(), value); });
       for (const auto& column : extra) h5::write_attribute(diag, column.first.c_str(), column.second);
+    }
+
+    if (!solver.config().obstacles.empty()) {
+      // Each obstacle's outline, for plots: a closed polyline (M, 2) [x, y] (a circle sampled at
+      // 360 points, a polygon's vertices), and its reference length.
+      Handle group(H5Gcreate2(file, "obstacles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
+                   "create group obstacles");
+      const std::vector<ObstacleConfig>& obstacles = solver.config().obstacles;
+      for (size_t k = 0; k < obstacles.size(); ++k) {
+        const ObstacleConfig& o = obstacles[k];
+        std::vector<double> outline;
+        if (o.shape == ObstacleShape::circle) {
+          constexpr int points = 360;
+          for (int v = 0; v < points; ++v) {
+            const double angle = 2 * M_PI * v / points;
+            outline.push_back(o.centre_x + o.radius * std::cos(angle));
+            outline.push_back(o.centre_y + o.radius * std::sin(angle));
+          }
+        } else {
+          for (size_t v = 0; v < o.vertices_x.size(); ++v) {
+            outline.push_back(o.vertices_x[v]);
+            outline.push_back(o.vertices_y[v]);
+          }
+        }
+        const std::string name = "outline_" + std::to_string(k);
+        const hsize_t m = outline.size() / 2;
+        h5::write_block(group, name.c_str(), {m, 2}, {0, 0}, {context_.is_root() ? m : 0, 2}, outline.data(), context_);
+        h5::write_attribute(group, ("reference_length_" + std::to_string(k)).c_str(), o.reference_length);
+      }
     }
 
     {

@@ -25,3 +25,6 @@ done
 # resolution: 1.155 to 1.159 with seeds 1 to 4 (1.246 at the default 200 x 100 cells).
 /usr/bin/python3 "$source_dir/tools/mpmflow_plot.py" forces "$work_dir/output" --last 10 --out "$work_dir/plots" \
   --min-drag 1.10 --max-drag 1.35 | tail -2
+# The pictures: fields from the particles and the grid (obstacle outlined), the surface pressure.
+/usr/bin/python3 "$source_dir/tools/mpmflow_plot.py" fields "$work_dir/output" --out "$work_dir/plots" | tail -1
+/usr/bin/python3 "$source_dir/tools/mpmflow_plot.py" surface-pressure "$work_dir/output" --out "$work_dir/plots" | tail -2

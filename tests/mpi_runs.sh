@@ -41,6 +41,10 @@ case $test_name in
   sod)
     for np in 1 2 4; do run $np "$work/np$np" "$source_dir/cases/sod.json"; done
     for np in 2 4; do $compare "$work/np1" "$work/np$np" --all --tolerance 1e-10 | tail -2; done
+    # A 1D case's picture is line profiles along x (written from a folder that holds checkpoints
+    # of nothing else, and from the 4-rank output).
+    /usr/bin/python3 "$source_dir/tools/mpmflow_plot.py" fields "$work/np4" --out "$work/plots" | grep -q "_profiles.png" \
+      || { echo "FAILED: no profile plot of the 1D case"; exit 1; }
     ;;
   cylinder)
     for np in 1 2 4; do run $np "$work/np$np" "${cylinder[@]}"; done

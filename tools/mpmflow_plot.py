@@ -4,9 +4,15 @@
 Runs under Debian's python3 (/usr/bin/python3), which has python3-h5py, python3-matplotlib and
 python3-numpy (scripts/setup.sh installs them).
 
-  mpmflow_plot.py fields OUTPUT_DIR [--step N] [--out DIR] [--gamma G]
+  mpmflow_plot.py fields OUTPUT_DIR [--step N] [--out DIR] [--no-grid]
       PNGs of pressure, density, Mach number and a numerical schlieren (log of the density-gradient
-      magnitude) of one output step (default: the last).
+      magnitude) of one output step (default: the last), from the particles binned per cell and
+      from the grid's nodal fields, obstacles outlined, colours over the 1st to 99th percentile; a
+      1D case (one or two cells across) as line plots along x. Written to --out (default ./plots).
+  mpmflow_plot.py surface-pressure OUTPUT_DIR [--obstacle K] [--band CELLS] [--out DIR]
+      The pressure coefficient of the particles next to an obstacle's surface in the last output:
+      a polygon's against x / c (upper and lower sides), a circle's against the angle from the
+      front stagnation point.
   mpmflow_plot.py sod OUTPUT_DIR --case CASE.json [--mpmflow BIN] [--out PNG]
       The last output of a Riemann-problem case (Sod) against the exact solution: particles, the
       grid interpolation and the exact solution (computed by `mpmflow riemann`).
@@ -30,8 +36,9 @@ python3-numpy (scripts/setup.sh installs them).
       minus what left through the open sides, at every output; with --max-residual, exits 1 when
       the residual relative to the initial mass exceeds F.
 
-Fields are binned from the particles onto the cells of the output grid, mass-weighted: a particle
-carries the state, the grid only its mass and momentum.
+The tools read the snapshots the run's XDMF time series lists (not stale files of an earlier run
+in the same folder). Particle fields are binned onto the cells of the output grid, mass-weighted;
+grid fields are the nodal values the run wrote (the particles' state projected on the nodes).
 """
 import argparse
 import glob
@@ -87,6 +94,17 @@ class Snapshot:
             self.grid = {name: grid[name][...].reshape((nodes_y, nodes_x) + grid[name].shape[1:]) for name in grid}
             self.origin = (float(grid.attrs["origin_x"]), float(grid.attrs["origin_y"]))
             self.spacing = (float(grid.attrs["spacing_x"]), float(grid.attrs["spacing_y"]))
+            self.obstacles = []
+            if "obstacles" in f:
+                k = 0
+                while f"outline_{k}" in f["obstacles"]:
+                    self.obstacles.append(f["obstacles"][f"outline_{k}"][...])
+                    k += 1
+            effective = f.attrs.get("effective_case")
+            case = json.loads(effective.decode() if isinstance(effective, bytes) else effective) if effective else {}
+        self.gamma = float(case.get("physics", {}).get("gamma", 1.4))
+        self.free_stream = case.get("free_stream")
+        self.obstacle_is_circle = [o.get("type") == "circle" for o in case.get("obstacles", [])]
         self.particles["velocity_x"] = self.particles["velocity"][:, 0]
         self.particles["velocity_y"] = self.particles["velocity"][:, 1]
         self.cells = (nodes_x - 1, nodes_y - 1)
@@ -108,57 +126,201 @@ class Snapshot:
                 self.origin[1], self.origin[1] + self.cells[1] * self.spacing[1])
 
 
+def robust_range(values, low=1, high=99):
+    """The 1st to 99th percentile of the finite values: a few particles (a stagnation point's
+    pressure spike) must not set the colour range."""
+    finite = np.asarray(values)[np.isfinite(values)]
+    if finite.size == 0:
+        return 0.0, 1.0
+    lo, hi = np.percentile(finite, [low, high])
+    return (float(lo), float(hi)) if hi > lo else (float(lo) - 0.5, float(lo) + 0.5)
+
+
+def draw_outlines(ax, s):
+    for outline in s.obstacles:
+        closed = np.vstack([outline, outline[:1]])
+        ax.fill(closed[:, 0], closed[:, 1], color="white", zorder=3)
+        ax.plot(closed[:, 0], closed[:, 1], "k-", lw=0.8, zorder=4)
+    x0, x1, y0, y1 = s.extent()
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+
+
+def save(fig, target):
+    fig.savefig(target + ".tmp.png", dpi=110)
+    os.replace(target + ".tmp.png", target)  # never a half-written picture
+
+
 def plot_fields(args):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     files = snapshot_files(args.output_dir)
-    path = files[-1] if args.step is None else os.path.join(args.output_dir, f"{os.path.basename(files[0])[:-10]}_{args.step:06d}.h5")
-    if not os.path.exists(path):
-        sys.exit(f"mpmflow_plot: error: {path} does not exist")
+    if args.step is None:
+        path = files[-1]
+    else:
+        wanted = [f for f in files if f.endswith(f"_{args.step:06d}.h5")]
+        if not wanted:
+            sys.exit(f"mpmflow_plot: error: the run in {args.output_dir} has no output {args.step} "
+                     f"(outputs 0 to {len(files) - 1})")
+        path = wanted[0]
     s = Snapshot(path)
     p = s.particles
-    density = s.binned(p["density"])
-    pressure = s.binned(p["pressure"])
-    sound = np.sqrt(args.gamma * np.maximum(p["pressure"], 0) / p["density"])
-    mach = s.binned(np.hypot(p["velocity_x"], p["velocity_y"]) / sound)
-    # Numerical schlieren as in the 2023 paper: log of the density-gradient magnitude, from the grid's
-    # nodal density (the P2G spreads each particle over its stencil, which smooths the
+    out_dir = args.out
+    os.makedirs(out_dir, exist_ok=True)
+    stem = os.path.join(out_dir, os.path.basename(path)[:-3])
+    written = []
+    sound = np.sqrt(s.gamma * np.maximum(p["pressure"], 0) / p["density"])
+    mach = np.hypot(p["velocity_x"], p["velocity_y"]) / sound
+
+    if s.cells[1] <= 2:
+        # A 1D case (one or two cells across): line plots along x, particles and grid nodes.
+        grid_x = s.origin[0] + s.spacing[0] * np.arange(s.cells[0] + 1)
+        fig, axes = plt.subplots(4, 1, figsize=(7, 10), sharex=True)
+        for ax, (label, values, grid_values) in zip(axes, [
+                ("density", p["density"], s.grid["density"].mean(axis=0)),
+                ("velocity x", p["velocity_x"], s.grid["velocity"][:, :, 0].mean(axis=0)),
+                ("pressure", p["pressure"], s.grid["pressure"].mean(axis=0)),
+                ("Mach number", mach, s.grid["mach_number"].mean(axis=0))]):
+            ax.plot(s.x, values, ".", ms=2.5, color="tab:blue", label="particles")
+            ax.plot(grid_x, grid_values, "-", color="tab:orange", lw=1, label="grid nodes")
+            ax.set_ylabel(label)
+            ax.grid(alpha=0.3)
+        axes[0].legend(loc="best")
+        axes[0].set_title(f"{s.case}: t = {s.time:g}")
+        axes[-1].set_xlabel("x")
+        fig.tight_layout()
+        target = f"{stem}_profiles.png"
+        save(fig, target)
+        plt.close(fig)
+        print(target)
+        return
+
+    # Numerical schlieren as in the 2023 paper: log of the density-gradient magnitude, from the
+    # grid's nodal density (the P2G spreads each particle over its stencil, which smooths the
     # particle-count noise that a per-cell bin shows), sampled at the cell centres.
     node_density = s.grid["density"]
     gy, gx = np.gradient(node_density, s.spacing[1], s.spacing[0])
     magnitude = np.hypot(gx, gy)
     magnitude = 0.25 * (magnitude[:-1, :-1] + magnitude[1:, :-1] + magnitude[:-1, 1:] + magnitude[1:, 1:])
     schlieren = np.log10(magnitude + 1e-3)
+    density = s.binned(p["density"])
     schlieren[np.isnan(density)] = np.nan
-
-    out_dir = args.out or args.output_dir
-    os.makedirs(out_dir, exist_ok=True)
-    stem = os.path.join(out_dir, os.path.basename(path)[:-3])
+    empty_nodes = s.grid["mass"] <= 0
     width = 8.0
     height = width * (s.extent()[3] - s.extent()[2]) / (s.extent()[1] - s.extent()[0]) + 1.0
-    written = []
-    for name, field, cmap, label in [
-        ("pressure", pressure, "viridis", "pressure"),
-        ("density", density, "viridis", "density"),
-        ("mach", mach, "plasma", "Mach number"),
-        ("schlieren", schlieren, "Greys", "log10 |grad density|"),
+    node_extent = (s.origin[0] - s.spacing[0] / 2, s.origin[0] + (s.cells[0] + 0.5) * s.spacing[0],
+                   s.origin[1] - s.spacing[1] / 2, s.origin[1] + (s.cells[1] + 0.5) * s.spacing[1])
+    for name, cmap, label, particles_binned, grid_nodes in [
+        ("pressure", "viridis", "pressure", s.binned(p["pressure"]), s.grid["pressure"]),
+        ("density", "viridis", "density", density, s.grid["density"]),
+        ("mach", "plasma", "Mach number", s.binned(mach), s.grid["mach_number"]),
+        ("schlieren", "Greys", "log10 |grad density| (grid)", schlieren, None),
     ]:
-        fig, ax = plt.subplots(figsize=(width, height))
-        image = ax.imshow(np.ma.masked_invalid(field), origin="lower", extent=s.extent(), cmap=cmap,
-                          interpolation="nearest")
-        ax.set_title(f"{s.case}: {label}, t = {s.time:g}")
-        ax.set_xlabel("x")
-        ax.set_ylabel("y")
-        fig.colorbar(image, ax=ax, shrink=0.8)
-        fig.tight_layout()
-        target = f"{stem}_{name}.png"
-        fig.savefig(target + ".tmp.png", dpi=110)
-        os.replace(target + ".tmp.png", target)  # never a half-written picture
-        plt.close(fig)
-        written.append(target)
+        # The particles binned per cell (mass-weighted), and the grid's nodal values.
+        panels = [("particles", particles_binned, s.extent())]
+        if grid_nodes is not None and args.grid:
+            panels.append(("grid", np.where(empty_nodes, np.nan, grid_nodes), node_extent))
+        for source, field, extent in panels:
+            fig, ax = plt.subplots(figsize=(width, height))
+            lo, hi = robust_range(field)
+            image = ax.imshow(np.ma.masked_invalid(field), origin="lower", extent=extent, cmap=cmap,
+                              interpolation="nearest", vmin=lo, vmax=hi)
+            draw_outlines(ax, s)
+            ax.set_title(f"{s.case}: {label}, t = {s.time:g}" + (" (grid nodes)" if source == "grid" else ""))
+            ax.set_xlabel("x")
+            ax.set_ylabel("y")
+            fig.colorbar(image, ax=ax, shrink=0.8, extend="both")
+            fig.tight_layout()
+            target = f"{stem}_{name}{'_grid' if source == 'grid' else ''}.png"
+            save(fig, target)
+            plt.close(fig)
+            written.append(target)
     print("\n".join(written))
+
+
+def surface_pressure(args):
+    """The pressure coefficient of the particles next to an obstacle's surface, along it: for a
+    polygon against x / c (c its extent along the free stream), upper and lower sides apart; for a
+    circle against the angle from the front stagnation point."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = snapshot_files(args.output_dir)
+    s = Snapshot(files[-1])
+    if args.obstacle >= len(s.obstacles):
+        sys.exit(f"mpmflow_plot: error: {files[-1]} has {len(s.obstacles)} obstacles; no obstacle {args.obstacle}")
+    if s.free_stream is None:
+        sys.exit("mpmflow_plot: error: the case has no free stream, so no pressure coefficient")
+    rho, p_inf, velocity = s.free_stream["density"], s.free_stream["pressure"], np.array(s.free_stream["velocity"])
+    speed = float(np.hypot(*velocity))
+    q = 0.5 * rho * speed ** 2
+    flow = velocity / speed
+    outline = s.obstacles[args.obstacle]
+    a, b = outline, np.roll(outline, -1, axis=0)
+    h = max(s.spacing)
+    lo, hi = outline.min(axis=0) - 2 * h, outline.max(axis=0) + 2 * h
+    near = (s.x > lo[0]) & (s.x < hi[0]) & (s.y > lo[1]) & (s.y < hi[1])
+    points = np.column_stack([s.x[near], s.y[near]])
+    pressure = s.particles["pressure"][near]
+    # Nearest point of each edge, for every candidate particle.
+    edge = b - a
+    t = np.clip(((points[:, None, :] - a[None]) * edge[None]).sum(axis=2) / (edge ** 2).sum(axis=1)[None], 0, 1)
+    nearest = a[None] + t[..., None] * edge[None]
+    distance = np.hypot(*(points[:, None, :] - nearest).transpose(2, 0, 1))
+    which = distance.argmin(axis=1)
+    d = distance[np.arange(len(points)), which]
+    band = d < args.band * h
+    cp = (pressure[band] - p_inf) / q
+    foot = nearest[np.arange(len(points)), which][band]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    if s.obstacle_is_circle[args.obstacle]:
+        centre = outline.mean(axis=0)
+        radial = (foot - centre) / np.hypot(*(foot - centre).T)[:, None]
+        angle = np.degrees(np.arccos(np.clip(radial @ -flow, -1, 1)))
+        bins = np.linspace(0, 180, 37)
+        x_label, position = "angle from the front stagnation point (degrees)", angle
+        groups = [("surface", np.ones(len(cp), bool))]
+    else:
+        along = foot @ flow
+        chord = outline @ flow
+        position = (along - chord.min()) / (chord.max() - chord.min())
+        # Upper or lower: which side of the chord line (leading to trailing edge) the surface point is.
+        leading, trailing = outline[chord.argmin()], outline[chord.argmax()]
+        line = trailing - leading
+        side = (foot - leading) @ np.array([-line[1], line[0]])
+        bins = np.linspace(0, 1, 41)
+        x_label = "x / c"
+        groups = [("upper", side >= 0), ("lower", side < 0)]
+    centres = 0.5 * (bins[:-1] + bins[1:])
+    medians_all = []
+    for name, mask in groups:
+        ax.plot(position[mask], cp[mask], ".", ms=2, alpha=0.3)
+        index = np.digitize(position[mask], bins) - 1
+        medians = [np.median(cp[mask][index == k]) if np.any(index == k) else np.nan for k in range(len(centres))]
+        ax.plot(centres, medians, "-o", ms=3, label=f"{name} (median per bin)")
+        medians_all += medians
+    # The 1st to 99th percentile: a particle held at a stagnation point can reach 100 times the rest.
+    lo, hi = robust_range(cp)
+    margin = 0.1 * (hi - lo)
+    ax.set_ylim(lo - margin, hi + margin)
+    if not s.obstacle_is_circle[args.obstacle]:
+        ax.invert_yaxis()  # aerodynamicists plot -Cp upwards
+    ax.set_xlabel(x_label)
+    ax.set_ylabel("pressure coefficient (p - p_inf) / q_inf")
+    ax.set_title(f"{s.case}: obstacle {args.obstacle}, particles within {args.band:g} cells, t = {s.time:g}")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    os.makedirs(args.out, exist_ok=True)
+    target = os.path.join(args.out, f"{s.case}_obstacle{args.obstacle}_surface_pressure.png")
+    save(fig, target)
+    print(f"{int(band.sum())} particles within {args.band:g} cells of the surface; largest bin median "
+          f"{float(np.nanmax(medians_all)):.3f}")
+    print(target)
+    return 0
 
 
 def find_mpmflow(explicit):
@@ -216,7 +378,8 @@ def plot_sod(args):
     axes[0].set_title(f"{s.case}: t = {s.time:g}")
     axes[-1].set_xlabel("x")
     fig.tight_layout()
-    target = args.out or os.path.join(args.output_dir, f"{s.case}_comparison.png")
+    target = args.out or os.path.join("plots", f"{s.case}_comparison.png")
+    os.makedirs(os.path.dirname(target) or ".", exist_ok=True)
     fig.savefig(target + ".tmp.png", dpi=110)
     os.replace(target + ".tmp.png", target)
     print(target)
@@ -412,13 +575,19 @@ def main():
     fields = sub.add_parser("fields", help="PNGs of pressure, density, Mach number and schlieren")
     fields.add_argument("output_dir")
     fields.add_argument("--step", type=int, help="output index (default: the last)")
-    fields.add_argument("--out", help="directory for the PNGs (default: the output directory)")
-    fields.add_argument("--gamma", type=float, default=1.4)
+    fields.add_argument("--out", default="plots", help="directory for the PNGs (default: ./plots)")
+    fields.add_argument("--no-grid", dest="grid", action="store_false",
+                        help="only the particles binned per cell, not the grid's nodal fields as well")
+    surface = sub.add_parser("surface-pressure", help="pressure coefficient along an obstacle's surface")
+    surface.add_argument("output_dir")
+    surface.add_argument("--obstacle", type=int, default=0)
+    surface.add_argument("--band", type=float, default=1.0, help="particles within this many cells of the surface (1)")
+    surface.add_argument("--out", default="plots", help="directory for the PNG (default: ./plots)")
     sod = sub.add_parser("sod", help="Sod comparison with the exact solution")
     sod.add_argument("output_dir")
     sod.add_argument("--case", required=True, help="the case file that was run (for the two states)")
     sod.add_argument("--mpmflow", help="the mpmflow binary (default: build/*/bin/mpmflow)")
-    sod.add_argument("--out", help="PNG path (default: OUTPUT_DIR/<case>_comparison.png)")
+    sod.add_argument("--out", help="PNG path (default: plots/<case>_comparison.png)")
     shock = sub.add_parser("bow-shock", help="stand-off distance and nose pressure of a cylinder's bow shock")
     shock.add_argument("output_dir")
     shock.add_argument("--centre", type=float, nargs=2, default=[0.6, 1.0])
@@ -451,6 +620,8 @@ def main():
     args = parser.parse_args()
     if args.command == "forces":
         sys.exit(forces(args))
+    if args.command == "surface-pressure":
+        sys.exit(surface_pressure(args))
     if args.command == "fields":
         plot_fields(args)
     elif args.command == "sod":
