@@ -41,17 +41,28 @@ void print_totals(std::ostream& log, const char* label, const ConservationTotals
         << (t.mass - t0.mass - fluxes.entered.mass + fluxes.left.mass) / t0.mass << "\n";
 }
 
-void print_timer_table(std::ostream& log, const PhaseTimers& timers, long steps) {
-  const double total = timers.total_seconds();
-  log << "\nTime per phase\n"
-      << "  " << std::left << std::setw(28) << "phase" << std::right << std::setw(11) << "total [s]" << std::setw(8)
-      << "%" << std::setw(10) << "calls" << std::setw(14) << "per step [ms]" << "\n";
+// The time per phase; under MPI the mean over the ranks, with the fastest and the slowest rank
+// (collective: every rank calls it).
+void print_timer_table(std::ostream& log, const PhaseTimers& timers, long steps, const ParallelContext& context) {
+  const bool ranks = context.distributed();
+  auto mean_over_ranks = [&](double value) {
+    context.sum_in_place(&value, 1);
+    return value / context.size();
+  };
+  const double total = mean_over_ranks(timers.total_seconds());
+  log << "\nTime per phase" << (ranks ? " (mean over the ranks, and the fastest and slowest rank)" : "") << "\n"
+      << "  " << std::left << std::setw(28) << "phase" << std::right << std::setw(11) << (ranks ? "mean [s]" : "total [s]");
+  if (ranks) log << std::setw(10) << "min [s]" << std::setw(10) << "max [s]";
+  log << std::setw(8) << "%" << std::setw(10) << "calls" << std::setw(14) << "per step [ms]" << "\n";
   for (const Phase phase : timers.phases()) {
     const auto& e = timers.entry(phase);
+    const double mean = mean_over_ranks(e.seconds);
+    const double fastest = context.min(e.seconds), slowest = context.max(e.seconds);
     log << "  " << std::left << std::setw(28) << phase_name(phase) << std::right << std::fixed << std::setprecision(3)
-        << std::setw(11) << e.seconds << std::setprecision(1) << std::setw(8) << 100 * e.seconds / total
-        << std::setw(10) << e.calls << std::setprecision(3) << std::setw(14)
-        << (steps > 0 ? 1000 * e.seconds / steps : 0.0) << "\n";
+        << std::setw(11) << mean;
+    if (ranks) log << std::setw(10) << fastest << std::setw(10) << slowest;
+    log << std::setprecision(1) << std::setw(8) << 100 * mean / total << std::setw(10) << e.calls
+        << std::setprecision(3) << std::setw(14) << (steps > 0 ? 1000 * mean / steps : 0.0) << "\n";
   }
   log << std::defaultfloat;
 }
@@ -335,8 +346,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   if (context.distributed()) log << " on " << context.size() << " ranks";
   log << "\n";
   print_totals(log, "final", summary.final_totals, summary.initial_totals, summary.final_fluxes, open_sides);
-  if (context.distributed()) log << "\n(phase times of rank 0)";
-  print_timer_table(log, solver.timers(), steps_run);
+  print_timer_table(log, solver.timers(), steps_run, context);
   if (!summary.output_directory.empty()) {
 #ifdef MPMFLOW_HAVE_HDF5
     log << "output written to " << summary.output_directory << " (open " << writer->particles_xdmf_path()
