@@ -151,6 +151,17 @@ def save(fig, target):
     os.replace(target + ".tmp.png", target)  # never a half-written picture
 
 
+def write_figure(fig, ax, out_dir, name):
+    """Grid, legend and layout of a line plot, saved as out_dir/name; returns the path."""
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    os.makedirs(out_dir, exist_ok=True)
+    target = os.path.join(out_dir, name)
+    save(fig, target)
+    return target
+
+
 def plot_fields(args):
     import matplotlib
     matplotlib.use("Agg")
@@ -311,12 +322,7 @@ def surface_pressure(args):
     ax.set_xlabel(x_label)
     ax.set_ylabel("pressure coefficient (p - p_inf) / q_inf")
     ax.set_title(f"{s.case}: obstacle {args.obstacle}, particles within {args.band:g} cells, t = {s.time:g}")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    os.makedirs(args.out, exist_ok=True)
-    target = os.path.join(args.out, f"{s.case}_obstacle{args.obstacle}_surface_pressure.png")
-    save(fig, target)
+    target = write_figure(fig, ax, args.out, f"{s.case}_obstacle{args.obstacle}_surface_pressure.png")
     print(f"{int(band.sum())} particles within {args.band:g} cells of the surface; largest bin median "
           f"{float(np.nanmax(medians_all)):.3f}")
     print(target)
@@ -551,13 +557,7 @@ def forces(args):
     ax.plot(t, lift, "s-", ms=3, label="lift coefficient")
     ax.set_xlabel("t")
     ax.set_title(f"obstacle {args.obstacle}: mean force between outputs")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    os.makedirs(args.out, exist_ok=True)
-    target = os.path.join(args.out, f"obstacle{args.obstacle}_coefficients.png")
-    fig.savefig(target + ".tmp.png", dpi=110)
-    os.replace(target + ".tmp.png", target)
+    target = write_figure(fig, ax, args.out, f"obstacle{args.obstacle}_coefficients.png")
     print(target)
     failed = False
     if args.min_drag is not None and not mean_drag >= args.min_drag:
