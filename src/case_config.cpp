@@ -403,6 +403,19 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     throw ConfigError(source + ": /free_stream: required key is missing (a side is an inflow, an outflow or a "
                       "far field, so the free-stream density, velocity and pressure are needed)");
   }
+  // An inflow side lets the free stream in: its velocity must point into the domain there.
+  if (cfg.boundaries.has_free_stream) {
+    const GasState& inf = cfg.boundaries.free_stream;
+    const std::pair<const char*, double> inward[] = {{"left", inf.velocity_x}, {"right", -inf.velocity_x},
+                                                     {"bottom", inf.velocity_y}, {"top", -inf.velocity_y}};
+    const auto types = cfg.boundaries.side_types();
+    for (int side = 0; side < 4; ++side)
+      if (types[side] == BoundaryType::inflow && !(inward[side].second > 0))
+        throw ConfigError(source + ": /boundaries/" + inward[side].first +
+                          ": an inflow side needs the free stream to enter through it; /free_stream/velocity [" +
+                          std::to_string(inf.velocity_x) + ", " + std::to_string(inf.velocity_y) +
+                          "] does not point into the domain there (make the side an outflow or a far field)");
+  }
   if (cfg.boundaries.particle_supply == ParticleSupply::recycle) {
     if (cfg.boundaries.any(BoundaryType::far_field))
       throw ConfigError(source + ": /boundaries/particle_supply: far_field sides create and remove particles as "
@@ -434,6 +447,17 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     cfg.particles.per_cell_x = per_cell[0].get<int>();
     cfg.particles.per_cell_y = per_cell[1].get<int>();
     r.finish();
+    // Particle and node indices are 32-bit: the particles (with the storage's spare eighth) and the
+    // nodes must stay well below 2^31.
+    const double particles = double(cfg.domain.cells_x) * cfg.domain.cells_y * cfg.particles.per_cell_x *
+                             cfg.particles.per_cell_y;
+    const double limit = 1 << 30;
+    if (particles > limit || double(cfg.domain.cells_x + 5) * (cfg.domain.cells_y + 5) > limit)
+      throw ConfigError(source + ": /domain: " + std::to_string(cfg.domain.cells_x) + " x " +
+                        std::to_string(cfg.domain.cells_y) + " cells with " + std::to_string(cfg.particles.per_cell_x) +
+                        " x " + std::to_string(cfg.particles.per_cell_y) + " particles per cell make " +
+                        std::to_string(static_cast<long long>(particles)) +
+                        " particles; expected at most 2^30 particles and nodes (32-bit indices)");
   }
 
   // Without an initial_state, the domain starts filled with the free stream (the wind tunnel).
@@ -457,6 +481,14 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
         reg.y_max = yr.second;
         reg.state = read_gas_state(region);
         region.finish();
+        if (reg.x_max <= cfg.domain.x_min || reg.x_min >= cfg.domain.x_max || reg.y_max <= cfg.domain.y_min ||
+            reg.y_min >= cfg.domain.y_max) {
+          std::ostringstream msg;
+          msg << source << ": " << r.at("regions") << "/" << i << ": expected a box overlapping the domain [" << cfg.domain.x_min
+              << ", " << cfg.domain.x_max << "] x [" << cfg.domain.y_min << ", " << cfg.domain.y_max << "]; got ["
+              << reg.x_min << ", " << reg.x_max << "] x [" << reg.y_min << ", " << reg.y_max << "]";
+          throw ConfigError(msg.str());
+        }
         cfg.initial_state.regions.push_back(reg);
       }
     }
@@ -497,6 +529,47 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
   return cfg;
 }
 
+// Case documents nest a few levels; a deeper one is a mistake (or an attack), and refused before
+// anything recurses through it.
+constexpr int max_case_depth = 32;
+
+// Parses a case document: valid JSON, no object holding a key twice (JSON allows it and keeps the
+// last; a case file that sets a key twice is a mistake), at most max_case_depth levels deep.
+// Every failure is a ConfigError naming `source`.
+template <class Input>
+json parse_checked_json(Input&& input, const std::string& source) {
+  std::vector<std::set<std::string>> keys_of_open_objects;
+  std::vector<std::string> path;  // keys of the open objects, for the message
+  const json::parser_callback_t check = [&](int depth, json::parse_event_t event, json& value) {
+    if (depth > max_case_depth)
+      throw ConfigError(source + ": nested deeper than " + std::to_string(max_case_depth) + " levels");
+    switch (event) {
+      case json::parse_event_t::object_start:
+        keys_of_open_objects.emplace_back();
+        break;
+      case json::parse_event_t::object_end:
+        if (!keys_of_open_objects.empty()) keys_of_open_objects.pop_back();
+        break;
+      case json::parse_event_t::key: {
+        const std::string key = value.get<std::string>();
+        if (!keys_of_open_objects.back().insert(key).second)
+          throw ConfigError(source + ": the key \"" + key + "\" appears twice in one object (at nesting level " +
+                            std::to_string(depth) + "); expected each key once");
+        break;
+      }
+      default:
+        break;
+    }
+    return true;
+  };
+  try {
+    return json::parse(std::forward<Input>(input), check);
+  } catch (const json::exception& e) {
+    // Syntax errors, and numbers JSON allows but a double cannot hold (1e400).
+    throw ConfigError(source + ": not valid JSON: " + e.what());
+  }
+}
+
 void apply_override(json& doc, const std::string& source, const std::string& assignment) {
   const auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0)
@@ -516,8 +589,7 @@ void apply_override(json& doc, const std::string& source, const std::string& ass
 }  // namespace
 
 CaseConfig parse_case(const std::string& json_text, const std::string& source, PointsFiles* points_files) {
-  json doc = json::parse(json_text, nullptr, false);
-  if (doc.is_discarded()) throw ConfigError(source + ": not valid JSON");
+  const json doc = parse_checked_json(json_text, source);
   CaseConfig config = parse_document(doc, source, points_files);
   config.document = doc.dump();
   return config;
@@ -611,14 +683,13 @@ std::string effective_case_json(const CaseConfig& c) {
 }
 
 std::string load_case_document(const std::string& path, const std::vector<std::string>& overrides) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw ConfigError(path + ": is a directory; expected a case file (JSON), e.g. " +
+                      (std::filesystem::path(path) / "sod.json").string());
   std::ifstream in(path);
   if (!in) throw ConfigError(path + ": cannot open the case file");
-  json doc;
-  try {
-    doc = json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw ConfigError(path + ": not valid JSON: " + e.what());
-  }
+  json doc = parse_checked_json(in, path);
   for (const auto& assignment : overrides) apply_override(doc, path, assignment);
   return doc.dump();
 }

@@ -28,7 +28,6 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
   std::ostringstream name;
   name << checkpoint_prefix(case_name) << std::setw(9) << std::setfill('0') << clock.step << ".h5";
   const std::string path = directory + "/" + name.str();
-  const std::string temporary = path + ".tmp";
   if (context.is_root()) std::filesystem::create_directories(directory);
   context.barrier();
 
@@ -40,8 +39,21 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
     if (r < context.rank()) offset += counts[r];
     total += counts[r];
   }
-  {
-    Handle file(h5::create_file(temporary, context), H5Fclose, "create " + temporary);
+  // Read back before it replaces anything: a checkpoint that does not open, or whose particle
+  // fields are not all there, is not renamed into place, and no older one is pruned for it.
+  auto verify = [&](const std::string& written) {
+    Handle file(h5::open_file_here(written), H5Fclose, "open " + written + " to check it");
+    if (static_cast<long>(h5::read_attribute(file, "step")) != clock.step)
+      throw std::runtime_error(written + " reads back another step");
+    Handle group(H5Gopen2(file, "particles", H5P_DEFAULT), H5Gclose, "open group particles in " + written);
+    pt.for_each_field([&](const auto& field) {
+      using View = std::decay_t<decltype(field)>;
+      if (std::is_same<View, IndexView>::value) return;
+      if (h5::dataset_length(group, field.label().c_str()) != total)
+        throw std::runtime_error(written + ": particle field " + field.label() + " reads back short");
+    });
+  };
+  h5::write_file_safely(path, context, [&](hid_t file) {
     h5::write_string_attribute(file, "case", case_name);
     h5::write_string_attribute(file, "effective_case", effective_case_json(solver.config()));
     h5::write_attribute(file, "time", clock.time);
@@ -76,10 +88,8 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
       auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), field);
       h5::write_block(group, field.label().c_str(), {total}, {offset}, {static_cast<hsize_t>(n)}, host.data(), context);
     });
-  }
-  context.barrier();
+  }, verify);
   if (context.is_root()) {
-    std::filesystem::rename(temporary, path);
     if (keep > 0) {
       std::vector<std::string> existing;
       const std::string prefix = checkpoint_prefix(case_name);
@@ -89,7 +99,9 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
           existing.push_back(file);
       }
       std::sort(existing.begin(), existing.end());  // zero-padded steps: oldest first
-      for (size_t k = 0; k + keep < existing.size(); ++k) std::filesystem::remove(directory + "/" + existing[k]);
+      // A checkpoint that cannot be removed stays: pruning is housekeeping, never a failure.
+      std::error_code ignored;
+      for (size_t k = 0; k + keep < existing.size(); ++k) std::filesystem::remove(directory + "/" + existing[k], ignored);
     }
   }
   context.barrier();

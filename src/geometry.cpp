@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -48,6 +49,15 @@ double signed_area(const Polygon& polygon) {
 }  // namespace
 
 Polygon read_points_file(const std::string& path) {
+  // Bounds: an outline is a regular file of lines of two numbers; a device, a pipe or a file of
+  // endless lines (/dev/zero) is refused before it fills the memory, and the self-intersection
+  // check, quadratic in the points, stays quick.
+  constexpr size_t max_line_length = 1024;
+  constexpr size_t max_points = 20000;
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw std::runtime_error("cannot open the points file '" + path + "' (no such file)");
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw std::runtime_error("'" + path + "' is not a regular file; expected a points file of \"x y\" lines");
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open the points file '" + path + "'");
   Polygon polygon;
@@ -56,6 +66,11 @@ Polygon read_points_file(const std::string& path) {
   bool first_content_line = true;
   while (std::getline(in, line)) {
     ++line_number;
+    if (line.size() > max_line_length)
+      throw std::runtime_error("'" + path + "' line " + std::to_string(line_number) + ": longer than " +
+                               std::to_string(max_line_length) + " characters; expected \"x y\"");
+    if (polygon.size() >= max_points)
+      throw std::runtime_error("'" + path + "': more than " + std::to_string(max_points) + " points");
     const size_t start = line.find_first_not_of(" \t\r");
     if (start == std::string::npos || line[start] == '#') continue;
     std::istringstream fields(line);

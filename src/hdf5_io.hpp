@@ -6,6 +6,7 @@
 #include <hdf5.h>
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -15,21 +16,55 @@
 namespace mpmflow {
 namespace h5 {
 
+// HDF5's own reason for the last failed call ("No space left on device", "file signature not
+// found"), from its error stack: the innermost entry's description. Empty when there is none.
+std::string error_reason();
+
+// HDF5 prints its error stack to stderr by default (8 to 1300 lines for one failure): off; its
+// reason goes into the one-line errors mpmflow raises (error_reason).
+void silence_error_printing();
+
+// "HDF5: <what> failed[: <reason>]".
+inline std::string failure(const std::string& what) {
+  const std::string reason = error_reason();
+  return "HDF5: " + what + " failed" + (reason.empty() ? "" : ": " + reason);
+}
+
 // Closes an HDF5 handle when it goes out of scope, and turns a failed call into an exception.
 class Handle {
  public:
   Handle(hid_t id, herr_t (*close)(hid_t), const std::string& what) : id_(id), close_(close) {
-    if (id_ < 0) throw std::runtime_error("HDF5: " + what + " failed");
+    if (id_ < 0) throw std::runtime_error(failure(what));
   }
-  ~Handle() { close_(id_); }
+  ~Handle() {
+    if (id_ >= 0) close_(id_);
+  }
   Handle(const Handle&) = delete;
   Handle& operator=(const Handle&) = delete;
   operator hid_t() const { return id_; }
+  // Closes now, checked: closing a file writes what HDF5 still holds of it, which can fail.
+  void close(const std::string& what) {
+    const herr_t status = close_(id_);
+    id_ = -1;
+    if (status < 0) throw std::runtime_error(failure(what));
+  }
 
  private:
   hid_t id_;
   herr_t (*close_)(hid_t);
 };
+
+// Writes the HDF5 file `path` of all ranks of `context` so that nothing is lost: `fill` writes its
+// content into a temporary `path`.tmp, which is closed (checked), flushed to disk, checked by
+// `verify` (rank 0 alone, given the temporary's path; optional), and renamed into place. A failure
+// on any rank removes the temporary and throws CollectiveError on every rank, naming the file and
+// the reason; the files written before are untouched. Collective.
+void write_file_safely(const std::string& path, const ParallelContext& context,
+                       const std::function<void(hid_t file)>& fill,
+                       const std::function<void(const std::string& temporary)>& verify = {});
+
+// Opens `path` read-only on this rank alone (a check of a file just written).
+inline hid_t open_file_here(const std::string& path) { return H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT); }
 
 template <class T>
 hid_t type_of() {
@@ -67,14 +102,24 @@ inline hid_t file_access(const ParallelContext& context) {
   return fapl;
 }
 
+// Creates (or opens) `path` for all ranks of `context`; throws with HDF5's reason on failure
+// (taken before the access list is closed, which clears HDF5's error stack).
 inline hid_t create_file(const std::string& path, const ParallelContext& context) {
-  Handle fapl(file_access(context), H5Pclose, "file access list");
-  return H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+  const hid_t fapl = file_access(context);
+  const hid_t file = H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+  const std::string message = file < 0 ? failure("create " + path) : "";
+  H5Pclose(fapl);
+  if (file < 0) throw std::runtime_error(message);
+  return file;
 }
 
 inline hid_t open_file(const std::string& path, const ParallelContext& context) {
-  Handle fapl(file_access(context), H5Pclose, "file access list");
-  return H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl);
+  const hid_t fapl = file_access(context);
+  const hid_t file = H5Fopen(path.c_str(), H5F_ACC_RDONLY, fapl);
+  const std::string message = file < 0 ? failure("open " + path) : "";
+  H5Pclose(fapl);
+  if (file < 0) throw std::runtime_error(message);
+  return file;
 }
 
 inline hid_t transfer(const ParallelContext& context) {
@@ -108,7 +153,7 @@ void write_block(hid_t parent, const char* name, const std::vector<hsize_t>& glo
   }
   Handle dxpl(transfer(context), H5Pclose, "transfer list");
   if (H5Dwrite(set, type_of<T>(), memory_space, file_space, dxpl, data) < 0)
-    throw std::runtime_error(std::string("HDF5: write dataset ") + name + " failed");
+    throw std::runtime_error(failure(std::string("write dataset ") + name));
 }
 
 // Dataset `name` of `global_rows` rows of `components` values (1: a 1D dataset), holding a 2D
@@ -133,11 +178,11 @@ void write_rectangle_rows(hid_t parent, const char* name, hsize_t global_rows, h
     const hsize_t start[2] = {first, 0}, stride[2] = {row_length, 1}, count[2] = {num_rows, 1},
                   block[2] = {run_length, components};
     if (H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, stride, count, block) < 0)
-      throw std::runtime_error(std::string("HDF5: select the rows of dataset ") + name + " failed");
+      throw std::runtime_error(failure(std::string("select the rows of dataset ") + name));
   }
   Handle dxpl(transfer(context), H5Pclose, "transfer list");
   if (H5Dwrite(set, type_of<T>(), memory_space, file_space, dxpl, data) < 0)
-    throw std::runtime_error(std::string("HDF5: write dataset ") + name + " failed");
+    throw std::runtime_error(failure(std::string("write dataset ") + name));
 }
 
 // A dataset written whole by every rank alike (small: attributes-like arrays).
@@ -163,7 +208,7 @@ std::vector<T> read_rows(hid_t parent, const char* name, hsize_t offset, hsize_t
   }
   Handle dxpl(transfer(context), H5Pclose, "transfer list");
   if (H5Dread(set, type_of<T>(), memory_space, file_space, dxpl, values.data()) < 0)
-    throw std::runtime_error(std::string("HDF5: read dataset ") + name + " failed");
+    throw std::runtime_error(failure(std::string("read dataset ") + name));
   return values;
 }
 
@@ -179,7 +224,7 @@ inline void write_attribute(hid_t parent, const char* name, double value) {
   Handle space(H5Screate(H5S_SCALAR), H5Sclose, "scalar dataspace");
   Handle attr(H5Acreate2(parent, name, H5T_NATIVE_DOUBLE, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
               std::string("create attribute ") + name);
-  H5Awrite(attr, H5T_NATIVE_DOUBLE, &value);
+  if (H5Awrite(attr, H5T_NATIVE_DOUBLE, &value) < 0) throw std::runtime_error(failure(std::string("write attribute ") + name));
 }
 
 inline void write_string_attribute(hid_t parent, const char* name, const std::string& value) {
@@ -188,13 +233,13 @@ inline void write_string_attribute(hid_t parent, const char* name, const std::st
   Handle space(H5Screate(H5S_SCALAR), H5Sclose, "scalar dataspace");
   Handle attr(H5Acreate2(parent, name, type, space, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
               std::string("create attribute ") + name);
-  H5Awrite(attr, type, value.c_str());
+  if (H5Awrite(attr, type, value.c_str()) < 0) throw std::runtime_error(failure(std::string("write attribute ") + name));
 }
 
 inline double read_attribute(hid_t parent, const char* name) {
   Handle attr(H5Aopen(parent, name, H5P_DEFAULT), H5Aclose, std::string("open attribute ") + name);
   double value = 0;
-  if (H5Aread(attr, H5T_NATIVE_DOUBLE, &value) < 0) throw std::runtime_error(std::string("HDF5: read attribute ") + name);
+  if (H5Aread(attr, H5T_NATIVE_DOUBLE, &value) < 0) throw std::runtime_error(failure(std::string("read attribute ") + name));
   return value;
 }
 
@@ -202,7 +247,7 @@ inline std::string read_string_attribute(hid_t parent, const char* name) {
   Handle attr(H5Aopen(parent, name, H5P_DEFAULT), H5Aclose, std::string("open attribute ") + name);
   Handle type(H5Aget_type(attr), H5Tclose, "attribute type");
   std::string value(H5Tget_size(type), '\0');
-  if (H5Aread(attr, type, &value[0]) < 0) throw std::runtime_error(std::string("HDF5: read attribute ") + name);
+  if (H5Aread(attr, type, &value[0]) < 0) throw std::runtime_error(failure(std::string("read attribute ") + name));
   return value.substr(0, value.find('\0'));
 }
 

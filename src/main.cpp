@@ -96,11 +96,11 @@ mpmflow::CaseConfig load_case_on_root(const CommandLine& cl, const mpmflow::Para
   }
   if (!cl.output_directory.empty()) config.output.directory = cl.output_directory;
   mpmflow::check_case_supported(config);
+  mpmflow::check_memory(config, context.size());
   return config;
 }
 
-int run_case(const CommandLine& cl, const mpmflow::ParallelContext& context, const std::string& device) {
-  const mpmflow::CaseConfig config = load_case_on_root(cl, context);
+int run_case(const CommandLine& cl, const mpmflow::CaseConfig& config, const std::string& device) {
   mpmflow::RunOptions options;
   options.progress_interval_seconds = cl.progress_interval;
   options.restart_file = cl.restart_file;
@@ -248,18 +248,20 @@ int main(int argc, char** argv) {
     }
     if (parsed) {
       const bool run = app.got_subcommand("run");
-      std::string device;
-      std::vector<char*> kokkos_argv;
-      int kokkos_argc = 0;
-      if (run) {
-        device = choose_device(kokkos_args, context);
-        for (std::string& a : kokkos_args) kokkos_argv.push_back(&a[0]);
-        kokkos_argc = static_cast<int>(kokkos_argv.size());
-        Kokkos::initialize(kokkos_argc, kokkos_argv.data());
-      }
+      bool kokkos_initialized = false;
       try {
         if (run) {
-          status = run_case(cl, context, device);
+          // The case is read and checked first: a bad case is reported before Kokkos says anything.
+          const mpmflow::CaseConfig config = load_case_on_root(cl, context);
+          if (app.get_subcommand("run")->count("--restart") > 0 && cl.restart_file.empty())
+            throw UsageError{"--restart expects a checkpoint file; got an empty name"};
+          const std::string device = choose_device(kokkos_args, context);
+          std::vector<char*> kokkos_argv;
+          for (std::string& a : kokkos_args) kokkos_argv.push_back(&a[0]);
+          int kokkos_argc = static_cast<int>(kokkos_argv.size());
+          Kokkos::initialize(kokkos_argc, kokkos_argv.data());
+          kokkos_initialized = true;
+          status = run_case(cl, config, device);
         } else if (app.got_subcommand("case")) {
           const mpmflow::CaseConfig config = load_case_on_root(cl, context);
           if (root) std::cout << mpmflow::effective_case_json(config) << "\n";
@@ -285,7 +287,7 @@ int main(int argc, char** argv) {
         if (context.distributed()) MPI_Abort(context.comm(), status);
 #endif
       }
-      if (run) Kokkos::finalize();
+      if (kokkos_initialized) Kokkos::finalize();
     }
   }
 #ifdef MPMFLOW_HAVE_MPI

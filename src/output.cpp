@@ -1,7 +1,12 @@
 #include "output.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -14,15 +19,32 @@
 namespace mpmflow {
 
 void write_file_atomically(const std::string& path, const std::string& text) {
+  // Written, flushed to disk and renamed, every call checked; on failure the temporary goes and
+  // the file keeps its previous content.
   const std::string temporary = path + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) throw std::runtime_error("cannot write " + temporary);
-    out << text;
-    out.flush();
-    if (!out) throw std::runtime_error("error while writing " + temporary);
+  auto fail = [&](const std::string& what, int error) {
+    ::unlink(temporary.c_str());
+    throw std::runtime_error("writing " + path + " failed (" + what + "): " + std::strerror(error));
+  };
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (fd < 0) fail("create " + temporary, errno);
+  for (size_t done = 0; done < text.size();) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int error = errno;
+      ::close(fd);
+      fail("write", error);
+    }
+    done += static_cast<size_t>(n);
   }
-  std::filesystem::rename(temporary, path);
+  if (::fsync(fd) != 0) {
+    const int error = errno;
+    ::close(fd);
+    fail("flush to disk", error);
+  }
+  if (::close(fd) != 0) fail("close", errno);
+  if (::rename(temporary.c_str(), path.c_str()) != 0) fail("rename to " + path, errno);
 }
 
 void DiagnosticsLog::append(long step, double time, const ConservationTotals& t, const BoundaryFluxes& fluxes,
@@ -50,9 +72,17 @@ void DiagnosticsLog::resume(long step) {
   std::ifstream in(path_);
   std::string line;
   text_.clear();
-  while (std::getline(in, line)) {
+  for (long number = 1; std::getline(in, line); ++number) {
     const bool header = text_.empty() && line.rfind("step,", 0) == 0;
-    if (!header && std::stol(line.substr(0, line.find(','))) > step) break;
+    if (!header) {
+      const std::string first = line.substr(0, line.find(','));
+      char* end = nullptr;
+      const long row_step = std::strtol(first.c_str(), &end, 10);
+      if (first.empty() || *end != '\0')
+        throw std::runtime_error(path_ + ": line " + std::to_string(number) + ": expected a step number first; got '" +
+                                 first + "' (remove or repair the file to restart)");
+      if (row_step > step) break;
+    }
     text_ += line + "\n";
   }
 }
@@ -153,15 +183,13 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
   const NodeFieldsView projection = solver.grid_projection();
   const std::string name = file_name(index);
   const std::string path = directory_ + "/" + name;
-  const std::string temporary = path + ".tmp";
   const ParticleState& pt = solver.particles();
   const GridSlab& slab = solver.slab();
   const index_t n = pt.count;
   const hsize_t offset = static_cast<hsize_t>(context_.exclusive_prefix_sum(n));
   const hsize_t total = static_cast<hsize_t>(context_.sum(n));
 
-  {
-    Handle file(h5::create_file(temporary, context_), H5Fclose, "create " + temporary);
+  h5::write_file_safely(path, context_, [&](hid_t file) {
     h5::write_attribute(file, "time", time);
     h5::write_attribute(file, "step", static_cast<double>(step));
     h5::write_attribute(file, "num_ranks", static_cast<double>(context_.size()));
@@ -293,10 +321,7 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
       h5::write_attribute(group, "spacing_x", grid_spacing_x_);
       h5::write_attribute(group, "spacing_y", grid_spacing_y_);
     }
-  }
-  // Every rank has closed the file before rank 0 renames it.
-  context_.barrier();
-  if (context_.is_root()) std::filesystem::rename(temporary, path);
+  });
 
   records_.push_back({name, time, static_cast<long>(total)});
   if (context_.is_root()) {
@@ -397,7 +422,7 @@ std::string SnapshotWriter::mesh_file_name() const { return case_name_ + "_grid_
 void SnapshotWriter::write_mesh_file() const {
   // The nodes' coordinates (x fastest, as the node arrays) and the cells' four nodes
   // counter-clockwise, for readers without co-rectilinear meshes; written by rank 0 alone.
-  const std::string path = directory_ + "/" + mesh_file_name(), temporary = path + ".tmp";
+  const std::string path = directory_ + "/" + mesh_file_name();
   std::vector<double> points;
   std::vector<long long> cells;
   points.reserve(static_cast<size_t>(2 * grid_nodes_x_ * grid_nodes_y_));
@@ -412,13 +437,11 @@ void SnapshotWriter::write_mesh_file() const {
       cells.insert(cells.end(), {a, a + 1, a + 1 + grid_nodes_x_, a + grid_nodes_x_});
     }
   const ParallelContext alone = ParallelContext::self();  // this rank alone: plain (serial) HDF5 access
-  {
-    Handle file(h5::create_file(temporary, alone), H5Fclose, "create " + temporary);
+  h5::write_file_safely(path, alone, [&](hid_t file) {
     const hsize_t num_points = static_cast<hsize_t>(points.size() / 2), num_cells = static_cast<hsize_t>(cells.size() / 4);
     h5::write_block(file, "points", {num_points, 2}, {0, 0}, {num_points, 2}, points.data(), alone);
     h5::write_block(file, "cells", {num_cells, 4}, {0, 0}, {num_cells, 4}, cells.data(), alone);
-  }
-  std::filesystem::rename(temporary, path);
+  });
 }
 
 void SnapshotWriter::write_xdmf(const ParticleState& particles) const {

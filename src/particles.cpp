@@ -138,6 +138,24 @@ real_t max_signal_speed(const ParticleState& particles, real_t gamma) {
       });
 }
 
+index_t fastest_particle(const ParticleState& particles, real_t gamma) {
+  if (particles.count == 0) return -1;
+  const auto vx = particles.velocity_x, vy = particles.velocity_y, p = particles.pressure, rho = particles.density;
+  using Reducer = Kokkos::MaxLoc<real_t, index_t>;
+  typename Reducer::value_type fastest;
+  Kokkos::parallel_reduce(
+      "fastest_particle", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
+      KOKKOS_LAMBDA(const index_t k, typename Reducer::value_type& best) {
+        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k)));
+        if (speed > best.val || (speed == best.val && k < best.loc)) {
+          best.val = speed;
+          best.loc = k;
+        }
+      },
+      Reducer(fastest));
+  return fastest.loc;
+}
+
 index_t first_invalid_particle(const ParticleState& particles, real_t gamma) {
   const auto x = particles.position_x, y = particles.position_y, vx = particles.velocity_x,
              vy = particles.velocity_y, p = particles.pressure, rho = particles.density;

@@ -79,5 +79,8 @@ void reorder_particles_by_cell(const ParticleState& particles, index_t num_cells
 real_t max_signal_speed(const ParticleState& particles, real_t gamma);
 // The lowest index of a particle with an invalid gas state or position; particles.count if none.
 index_t first_invalid_particle(const ParticleState& particles, real_t gamma);
+// The index of the particle with the largest signal speed |v| + c (the one that sets the time
+// step); -1 without particles.
+index_t fastest_particle(const ParticleState& particles, real_t gamma);
 
 }  // namespace mpmflow

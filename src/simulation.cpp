@@ -1,5 +1,7 @@
 #include "simulation.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
@@ -10,6 +12,7 @@
 #include <vector>
 
 #include "checkpoint.hpp"
+#include "hdf5_io.hpp"
 #include "output.hpp"
 #include "parallel.hpp"
 #include "particles.hpp"
@@ -20,6 +23,8 @@ namespace {
 
 std::string format_seconds(double s) {
   std::ostringstream out;
+  // A step size that collapses makes the estimate meaningless, never negative or wrapped around.
+  if (!(s >= 0) || s > 3600.0 * 1e5) return "more than 100000h";
   if (s < 60) out << std::fixed << std::setprecision(1) << s << "s";
   else if (s < 3600) out << int(s / 60) << "m" << std::setw(2) << std::setfill('0') << int(s) % 60 << "s";
   else out << int(s / 3600) << "h" << std::setw(2) << std::setfill('0') << int(s / 60) % 60 << "m";
@@ -97,6 +102,22 @@ std::string describe_build(bool with_concurrency) {
 std::string version_description() { return describe_build(false); }
 std::string build_description() { return describe_build(true); }
 
+void check_memory(const CaseConfig& config, int num_ranks) {
+  const double particles = double(config.domain.cells_x) * config.domain.cells_y * config.particles.per_cell_x *
+                           config.particles.per_cell_y;
+  const double nodes = double(config.domain.cells_x + 5) * (config.domain.cells_y + 5);
+  const double needed = (200 * particles + 200 * nodes) / std::max(num_ranks, 1);
+  const double available = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGESIZE));
+  if (available > 0 && needed > available) {
+    std::ostringstream msg;
+    msg << config.source << ": /domain: " << config.domain.cells_x << " x " << config.domain.cells_y << " cells and "
+        << static_cast<long long>(particles) << " particles need about " << std::setprecision(3) << needed / 1e9
+        << " GB per rank (200 bytes per particle and per node); this machine has " << available / 1e9
+        << " GB; expected a smaller case, or more ranks";
+    throw ConfigError(msg.str());
+  }
+}
+
 void check_case_supported(const CaseConfig& config) {
 #ifndef MPMFLOW_HAVE_HDF5
   if (config.output.snapshots > 0)
@@ -151,6 +172,9 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   check_case_supported(config);
   ParallelContext context;
   context.gpu_aware = options.gpu_aware_mpi;
+#ifdef MPMFLOW_HAVE_HDF5
+  h5::silence_error_printing();  // its reasons go into mpmflow's own one-line errors
+#endif
   NullBuffer null_buffer;
   std::ostream null_log(&null_buffer);
   std::ostream& log = context.is_root() ? root_log : null_log;
@@ -180,6 +204,9 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   const bool open_sides = config.boundaries.any_open();
   DiagnosticsCalculator diagnostics(solver.particles().count);
   const long long n = solver.global_particle_count();
+  if (n == 0)
+    throw ConfigError(config.source + ": no gas in the domain: the obstacles (/obstacles) cover every particle's " +
+                      "place; expected obstacles that leave room for the flow");
   const double end_time = config.time.end_time;
 
   if (options.print_banner) {
@@ -274,6 +301,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   const long max_steps = config.time.max_steps;
   const long first_step = solver.step_count();
   size_t balance_reports_printed = 0;
+  double first_stable_dt = 0;
   while (t < end_time && (max_steps == 0 || solver.step_count() < max_steps)) {
     const double target = snapshots > 0 ? snapshot_time(next_snapshot) : end_time;
     const double t_before = t;
@@ -291,6 +319,19 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
             << next_snapshot << " in " << config.output.directory;
         write_output(t, global_totals(diagnostics, solver), global_fluxes(solver));
       }
+      throw CollectiveError(msg.str());
+    }
+    // A step size that collapses (a blow-up in the making, or a case whose speeds are absurd:
+    // a pressure of 1e300) would run forever: stop, naming the particle that sets it. The stable
+    // step is the same on every rank, and so is the decision.
+    const double stable_dt = solver.last_stable_time_step();
+    if (first_stable_dt == 0) first_stable_dt = stable_dt;
+    const double steps_left = (end_time - t) / stable_dt;
+    if (!(stable_dt >= 1e-9 * first_stable_dt) || steps_left > 1e12) {
+      std::ostringstream msg;
+      msg << "the time step has collapsed: " << stable_dt << " after step " << solver.step_count() << " (t = " << t
+          << "; the first step's was " << first_stable_dt << "), " << steps_left
+          << " more steps to t_end; it is set by " << solver.describe_fastest_particle();
       throw CollectiveError(msg.str());
     }
 

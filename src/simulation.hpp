@@ -40,6 +40,11 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 // The version and build (Kokkos version and execution space, MPI, HDF5), without touching Kokkos:
 // what --version prints.
 std::string version_description();
+
+// Refuses (ConfigError, naming /domain and both figures) a case whose particles and grid would
+// need more memory per rank than this machine has: about 200 bytes per particle (the peak the
+// benchmark measures, spare capacity included) and 200 per grid node.
+void check_memory(const CaseConfig& config, int num_ranks);
 std::string build_description();
 
 }  // namespace mpmflow

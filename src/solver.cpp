@@ -191,8 +191,32 @@ std::vector<double> Solver::take_mean_obstacle_forces() {
   return mean;
 }
 
+std::string Solver::describe_fastest_particle() const {
+  const ParallelContext& context = this->context();
+  const index_t k = fastest_particle(particles_, config_.physics.gamma);
+  double speed = -1;
+  if (k >= 0)
+    speed = signal_speed(value_at(particles_.velocity_x, k), value_at(particles_.velocity_y, k),
+                         sound_speed(config_.physics.gamma, value_at(particles_.pressure, k),
+                                     value_at(particles_.density, k)));
+  const double fastest = context.max(speed);
+  // The lowest rank holding a particle that fast describes it.
+  const int reporting_rank = static_cast<int>(context.min(speed == fastest && k >= 0 ? context.rank() : context.size()));
+  std::string message;
+  if (context.rank() == reporting_rank) {
+    std::ostringstream msg;
+    msg << "particle " << value_at(particles_.id, k) << " at (" << value_at(particles_.position_x, k) << ", "
+        << value_at(particles_.position_y, k) << "): |v| + c = " << speed << " (density "
+        << value_at(particles_.density, k) << ", pressure " << value_at(particles_.pressure, k) << ")";
+    message = msg.str();
+  }
+  if (reporting_rank < context.size()) context.broadcast(message, reporting_rank);
+  return message;
+}
+
 double Solver::step_towards(double t, double target) {
   const double dt = stable_time_step();
+  last_stable_time_step_ = dt;
   // Round-off in t must not leave a sliver of a step before the target.
   const bool reaches_target = t + dt >= target - 1e-12 * target;
   advance(static_cast<real_t>(reaches_target ? target - t : dt));

@@ -73,6 +73,11 @@ class Solver {
   // The sums behind it: {time, impulse x0, impulse y0, ...}, the same on every rank (checkpoints).
   const std::vector<double>& obstacle_impulse() const { return obstacle_impulse_; }
   void restore_obstacle_impulse(const std::vector<double>& impulse) { obstacle_impulse_ = impulse; }
+  // The stable step the last step_towards computed (before any shortening to reach its target).
+  double last_stable_time_step() const { return last_stable_time_step_; }
+  // "particle <id> at (x, y): |v| + c = S (density, pressure)" of the particle with the largest
+  // signal speed of all ranks, on every rank. Collective.
+  std::string describe_fastest_particle() const;
   // The case the solver runs (after --set and defaults).
   const CaseConfig& config() const { return config_; }
 
@@ -131,6 +136,7 @@ class Solver {
   long step_count_ = 0;
   long long particle_steps_ = 0;
   ObstacleForces step_forces_;
+  double last_stable_time_step_ = 0;
   std::vector<double> obstacle_impulse_;  // since the last take_mean_obstacle_forces
 };
 

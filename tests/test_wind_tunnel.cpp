@@ -3,6 +3,8 @@
 // run past obstacles.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -201,8 +203,13 @@ TEST_F(GeometryErrors, ShippedCasesLoad) {
 
 // ---- Particles: placement and recycling -----------------------------------------------------------
 
+// The small tunnel, with the top-level keys of `extra_overrides_json` (", \"key\": value, ...")
+// replacing the tunnel's own (a case file may not give a key twice).
 CaseConfig tunnel_config(const std::string& extra_overrides_json = "") {
-  return parse_case(tunnel_case(kTunnelSides, kFreeStream + extra_overrides_json), "tunnel.json");
+  nlohmann::json doc = nlohmann::json::parse(tunnel_case(kTunnelSides, kFreeStream));
+  if (!extra_overrides_json.empty())
+    doc.update(nlohmann::json::parse("{" + extra_overrides_json.substr(extra_overrides_json.find(',') + 1) + "}"));
+  return parse_case(doc.dump(), "tunnel.json");
 }
 
 using IdPosition = std::map<particle_id_t, std::pair<real_t, real_t>>;
