@@ -644,6 +644,32 @@ json gas_state_json(const GasState& s) {
 }
 }  // namespace
 
+bool may_change_on_restart(const std::string& key_path) {
+  for (const char* key : {"/time/end", "/time/max_steps", "/output/snapshots", "/output/checkpoint_interval",
+                          "/output/checkpoints_kept", "/output/directory", "/description"})
+    if (key_path == key) return true;
+  return false;
+}
+
+std::string restart_incompatibility(const std::string& checkpoint_case, const std::string& current_case) {
+  const json before = json::parse(checkpoint_case).flatten(), now = json::parse(current_case).flatten();
+  std::set<std::string> keys;
+  for (auto it = before.begin(); it != before.end(); ++it) keys.insert(it.key());
+  for (auto it = now.begin(); it != now.end(); ++it) keys.insert(it.key());
+  for (const std::string& key : keys) {
+    // Array elements ("/domain/x/0") belong to their key.
+    std::string owner = key;
+    while (!owner.empty() && owner.find_last_of('/') != std::string::npos &&
+           owner.substr(owner.find_last_of('/') + 1).find_first_not_of("0123456789") == std::string::npos)
+      owner = owner.substr(0, owner.find_last_of('/'));
+    if (may_change_on_restart(owner)) continue;
+    const json a = before.contains(key) ? before[key] : json("(absent)");
+    const json b = now.contains(key) ? now[key] : json("(absent)");
+    if (a != b) return key + ": " + a.dump() + " in the checkpoint, " + b.dump() + " now";
+  }
+  return "";
+}
+
 std::string effective_case_json(const CaseConfig& c) {
   const json doc = c.document.empty() ? json::object() : json::parse(c.document);
   json e;
@@ -662,7 +688,15 @@ std::string effective_case_json(const CaseConfig& c) {
                      {"top", {{"type", to_string(c.boundaries.top)}}},
                      {"particle_supply", to_string(c.boundaries.particle_supply)}};
   if (c.boundaries.has_free_stream) e["free_stream"] = gas_state_json(c.boundaries.free_stream);
-  if (doc.contains("obstacles")) e["obstacles"] = doc["obstacles"];
+  if (doc.contains("obstacles")) {
+    e["obstacles"] = doc["obstacles"];
+    // Points files named as the parser found them (absolute), so that the effective case works
+    // from anywhere (a checkpoint's case, restarted elsewhere).
+    const std::filesystem::path directory = std::filesystem::path(c.source).parent_path();
+    for (json& o : e["obstacles"])
+      if (o.contains("file") && o["file"].is_string() && std::filesystem::path(o["file"].get<std::string>()).is_relative())
+        o["file"] = std::filesystem::absolute(directory / o["file"].get<std::string>()).lexically_normal().string();
+  }
   e["particles"] = {{"placement", to_string(c.particles.placement)},
                     {"per_cell", {c.particles.per_cell_x, c.particles.per_cell_y}},
                     {"seed", c.particles.seed}};
@@ -691,6 +725,13 @@ std::string load_case_document(const std::string& path, const std::vector<std::s
   if (!in) throw ConfigError(path + ": cannot open the case file");
   json doc = parse_checked_json(in, path);
   for (const auto& assignment : overrides) apply_override(doc, path, assignment);
+  return doc.dump();
+}
+
+std::string apply_overrides(const std::string& json_text, const std::string& source,
+                            const std::vector<std::string>& overrides) {
+  json doc = parse_checked_json(json_text, source);
+  for (const auto& assignment : overrides) apply_override(doc, source, assignment);
   return doc.dump();
 }
 

@@ -181,6 +181,9 @@ CaseConfig load_case_file(const std::string& path, const std::vector<std::string
 
 // The case file's JSON text with the overrides applied (not validated yet).
 std::string load_case_document(const std::string& path, const std::vector<std::string>& overrides = {});
+// A case document's text (from `source`, for messages) with the overrides applied.
+std::string apply_overrides(const std::string& json_text, const std::string& source,
+                            const std::vector<std::string>& overrides);
 
 // Validates a case document; `source` names it in error messages (and points files resolve
 // against its directory). Points files come from `points_files` when it holds them; those read
@@ -196,6 +199,14 @@ std::set<std::string> case_file_keys();
 // leaves out set to the default it took, in canonical order (2-space indented JSON). Parsing the
 // result gives the same case. Obstacles and initial regions are as the document gives them.
 std::string effective_case_json(const CaseConfig& config);
+
+// The keys a restart may change: the end time, the output schedule and folder, the step limit,
+// the description. (Everything else of a checkpoint's case must stay as it was.)
+bool may_change_on_restart(const std::string& key_path);
+
+// The first difference between two effective cases (effective_case_json texts) at a key that may
+// not change on a restart: "/physics/gamma: 1.4 in the checkpoint, 1.67 now"; empty when none.
+std::string restart_incompatibility(const std::string& checkpoint_case, const std::string& current_case);
 
 // ---- The names of enum values in case files and messages: one table per enum, which the parser
 // reads and to_string prints.

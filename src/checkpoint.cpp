@@ -2,6 +2,7 @@
 
 #ifdef MPMFLOW_HAVE_HDF5
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -108,6 +109,23 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
   return path;
 }
 
+std::string read_checkpoint_case(const std::string& path) {
+  h5::silence_error_printing();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) throw ConfigError("--restart " + path + ": no such checkpoint file");
+  try {
+    Handle file(h5::open_file_here(path), H5Fclose, "open " + path);
+    if (H5Aexists(file, "effective_case") <= 0)
+      throw ConfigError("--restart " + path + ": the checkpoint holds no case (written by an older mpmflow); "
+                        "give the case file too: mpmflow run CASE.json --restart " + path);
+    return h5::read_string_attribute(file, "effective_case");
+  } catch (const ConfigError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw ConfigError("--restart " + path + ": not a readable mpmflow checkpoint: " + e.what());
+  }
+}
+
 RestartState read_checkpoint(const std::string& path, const CaseConfig& config, const ParallelContext& context) {
   h5::require_parallel_if_distributed(context);
   if (!std::filesystem::exists(path)) throw CollectiveError("--restart " + path + ": no such checkpoint file");
@@ -123,9 +141,21 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
                             std::to_string(cells_x) + " x " + std::to_string(cells_y) + " cells; expected case '" +
                             config.name + "' on " + std::to_string(config.domain.cells_x) + " x " +
                             std::to_string(config.domain.cells_y) + " cells (" + config.source + ")");
+    // The case it was written with: only what may change on a restart may differ.
+    if (H5Aexists(file, "effective_case") > 0) {
+      const std::string difference =
+          restart_incompatibility(h5::read_string_attribute(file, "effective_case"), effective_case_json(config));
+      if (!difference.empty())
+        throw ConfigError("--restart " + path + ": the case differs from the checkpoint's at " + difference +
+                          "; a restart may change only the end time, the output schedule and folder, the step "
+                          "limit and the description");
+    }
     RunClock& clock = restart.clock;
     clock.time = h5::read_attribute(file, "time");
     clock.step = static_cast<long>(h5::read_attribute(file, "step"));
+    if (!(std::isfinite(clock.time) && clock.time >= 0 && clock.step >= 0))
+      throw ConfigError("--restart " + path + ": expected a time >= 0 and a step >= 0; the checkpoint holds t = " +
+                        std::to_string(clock.time) + ", step " + std::to_string(clock.step));
     clock.next_snapshot = static_cast<int>(h5::read_attribute(file, "next_snapshot"));
     clock.initial_totals.for_each_total([&](const char* name, double& value) {
       value = h5::read_attribute(file, (std::string("initial_") + name).c_str());

@@ -40,6 +40,11 @@ struct RestartState {
 };
 
 #ifdef MPMFLOW_HAVE_HDF5
+// The effective case a checkpoint was written with (this rank alone reads it): what
+// `mpmflow run --restart FILE` runs when no case file is given. ConfigError when the file is not
+// a readable checkpoint holding one.
+std::string read_checkpoint_case(const std::string& path);
+
 // Writes <directory>/<case>_checkpoint_<step>.h5 (collective) and deletes all but the newest
 // `keep` checkpoints of the case (0: keeps all). Returns the path.
 std::string write_checkpoint(const std::string& directory, const std::string& case_name, const Solver& solver,

@@ -26,6 +26,7 @@
 #endif
 
 #include "case_config.hpp"
+#include "checkpoint.hpp"
 #include "exact_riemann.hpp"
 #include "parallel.hpp"
 #include "simulation.hpp"
@@ -73,14 +74,23 @@ int print_riemann_solution(const CommandLine& cl) {
 // Rank 0 reads the case file (and any points file it names) and hands the text to the other
 // ranks, which parse the same text: a bad input is reported once, by rank 0, and every rank
 // then stops with a ConfigError.
+// What a case came from, for messages: its file, or the checkpoint it was taken from.
+std::string source_of(const CommandLine& cl) { return cl.case_file.empty() ? cl.restart_file : cl.case_file; }
+
 mpmflow::CaseConfig load_case_on_root(const CommandLine& cl, const mpmflow::ParallelContext& context) {
   std::string error, text, files;
   mpmflow::CaseConfig config;
   if (context.is_root()) {
     try {
-      text = mpmflow::load_case_document(cl.case_file, cl.overrides);
+#ifdef MPMFLOW_HAVE_HDF5
+      // No case file with --restart: the case the checkpoint was written with.
+      if (cl.case_file.empty() && !cl.restart_file.empty())
+        text = mpmflow::apply_overrides(mpmflow::read_checkpoint_case(cl.restart_file), cl.restart_file, cl.overrides);
+      else
+#endif
+        text = mpmflow::load_case_document(cl.case_file, cl.overrides);
       mpmflow::PointsFiles points;
-      config = mpmflow::parse_case(text, cl.case_file, &points);
+      config = mpmflow::parse_case(text, source_of(cl), &points);
       files = points.serialise();
     } catch (const mpmflow::ConfigError& e) {
       error = e.what();
@@ -92,7 +102,7 @@ mpmflow::CaseConfig load_case_on_root(const CommandLine& cl, const mpmflow::Para
   context.broadcast(files);
   if (!context.is_root()) {
     mpmflow::PointsFiles points = mpmflow::PointsFiles::deserialise(files);
-    config = mpmflow::parse_case(text, cl.case_file, &points);
+    config = mpmflow::parse_case(text, source_of(cl), &points);
   }
   if (!cl.output_directory.empty()) config.output.directory = cl.output_directory;
   mpmflow::check_case_supported(config);
@@ -119,7 +129,7 @@ void define_command_line(CLI::App& app, CommandLine& cl) {
       "Kokkos. Exit codes: 0 success, 1 runtime failure, 2 bad command line or case file.");
 
   CLI::App* run = app.add_subcommand("run", "run a case: [mpirun -np N] mpmflow run CASE.json [options]");
-  run->add_option("CASE", cl.case_file, "the case file (JSON)")->required();
+  run->add_option("CASE", cl.case_file, "the case file (JSON); with --restart, by default the checkpoint's own case");
   run->add_option("--output", cl.output_directory, "write outputs to DIR (overrides output/directory)")
       ->type_name("DIR");
   run->add_option("--set", cl.overrides,
@@ -252,9 +262,11 @@ int main(int argc, char** argv) {
       try {
         if (run) {
           // The case is read and checked first: a bad case is reported before Kokkos says anything.
-          const mpmflow::CaseConfig config = load_case_on_root(cl, context);
           if (app.get_subcommand("run")->count("--restart") > 0 && cl.restart_file.empty())
             throw UsageError{"--restart expects a checkpoint file; got an empty name"};
+          if (cl.case_file.empty() && cl.restart_file.empty())
+            throw UsageError{"run needs a case file (CASE), or --restart CHECKPOINT.h5 to continue a run"};
+          const mpmflow::CaseConfig config = load_case_on_root(cl, context);
           const std::string device = choose_device(kokkos_args, context);
           std::vector<char*> kokkos_argv;
           for (std::string& a : kokkos_args) kokkos_argv.push_back(&a[0]);

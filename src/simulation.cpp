@@ -244,13 +244,22 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
       diagnostics_log = std::make_unique<DiagnosticsLog>(config.output.directory + "/diagnostics.csv");
       if (restarting) diagnostics_log->resume(restart.clock.step);
     }
-    if (restarting) writer->resume(restart.clock.next_snapshot);
     summary.output_directory = config.output.directory;
   }
   const long checkpoint_interval = config.output.checkpoint_interval;
 #endif
-  int next_snapshot = restart.clock.next_snapshot;
   auto snapshot_time = [&](int k) { return end_time * k / snapshots; };
+  // The schedule is the case's (end time and snapshot count, which a restart may change): the
+  // next snapshot is the first one scheduled after the checkpoint's time.
+  int next_snapshot = restart.clock.next_snapshot;
+  if (restarting && snapshots > 0) {
+    next_snapshot = 1;
+    while (next_snapshot < snapshots && snapshot_time(next_snapshot) <= restart.clock.time * (1 + 1e-12))
+      ++next_snapshot;
+  }
+#ifdef MPMFLOW_HAVE_HDF5
+  if (restarting && writer) writer->resume(next_snapshot);
+#endif
   auto write_output = [&](double t, const ConservationTotals& totals, const BoundaryFluxes& fluxes) {
 #ifdef MPMFLOW_HAVE_HDF5
     if (!writer) return;

@@ -110,7 +110,7 @@ TEST_F(CommandLine, BadOverrideAndUsageErrorsAreRejected) {
   expect_rejected("run case.json --set domain/cells_x=-3", "case.json: /domain/cells_x: expected an integer");
   expect_rejected("run case.json --set cells_x", "expected PATH=VALUE");
   expect_rejected("run case.json --frobnicate", "mpmflow: error: The following argument was not expected: --frobnicate");
-  expect_rejected("run", "mpmflow: error: CASE is required");
+  expect_rejected("run", "mpmflow: error: run needs a case file (CASE), or --restart CHECKPOINT.h5");
   expect_rejected("run case.json --progress-interval soon", "--progress-interval");
   expect_rejected("run case.json --kokkos-threads=abc", "--kokkos-threads expects a positive integer; got 'abc'");
   expect_rejected("", "A subcommand is required");
