@@ -2,10 +2,12 @@
 // `mpmflow --help` and `mpmflow --version` need no case. Options starting with --kokkos- are
 // taken out before parsing and passed to Kokkos, which is initialised only for `run`, after the
 // command line has been parsed (so --help and --version print nothing of Kokkos).
-// Exit codes: 0 success, 1 runtime failure, 2 bad command line or bad case file. Under MPI every
+// Exit codes: 0 success, 1 runtime failure, 2 bad command line or bad case file, 3 stopped early
+// (SIGTERM, SIGINT, --wall-time) with a checkpoint to continue from. Under MPI every
 // rank exits with the same code; rank 0 alone prints the error (an error met by one rank only
 // aborts the job).
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
@@ -35,6 +37,9 @@ namespace {
 
 constexpr int kExitRuntimeError = 1;
 constexpr int kExitUsage = 2;
+// Stopped before the end by SIGTERM, SIGINT or --wall-time, after writing a checkpoint: the job
+// is to be continued with --restart (a batch script can test for it).
+constexpr int kExitStoppedEarly = 3;
 
 struct CommandLine {
   std::string case_file;
@@ -43,6 +48,7 @@ struct CommandLine {
   double progress_interval = 2.0;
   std::string restart_file;
   bool gpu_aware_mpi = false;
+  double wall_time_seconds = 0;
   // riemann
   std::vector<double> left, right, x_range = {0, 1};
   double x0 = 0, time = 0, gamma = 1.4;
@@ -116,8 +122,9 @@ int run_case(const CommandLine& cl, const mpmflow::CaseConfig& config, const std
   options.restart_file = cl.restart_file;
   options.gpu_aware_mpi = cl.gpu_aware_mpi;
   options.device_description = device;
-  mpmflow::run_simulation(config, options, std::cout);
-  return 0;
+  options.wall_time_seconds = cl.wall_time_seconds;
+  const mpmflow::RunSummary summary = mpmflow::run_simulation(config, options, std::cout);
+  return summary.stopped_by.empty() ? 0 : kExitStoppedEarly;
 }
 
 // The subcommands and their options, bound to `cl`.
@@ -126,7 +133,8 @@ void define_command_line(CLI::App& app, CommandLine& cl) {
   app.set_version_flag("--version", mpmflow::version_description(), "print the version and build, then exit");
   app.footer(
       "Kokkos options (--kokkos-threads=N, --kokkos-device-id=N, ...; see the Kokkos documentation) are passed to\n"
-      "Kokkos. Exit codes: 0 success, 1 runtime failure, 2 bad command line or case file.");
+      "Kokkos. Exit codes: 0 success, 1 runtime failure, 2 bad command line or case file, 3 stopped early\n"
+      "(SIGTERM, SIGINT, --wall-time) with a checkpoint to continue from.");
 
   CLI::App* run = app.add_subcommand("run", "run a case: [mpirun -np N] mpmflow run CASE.json [options]");
   run->add_option("CASE", cl.case_file, "the case file (JSON); with --restart, by default the checkpoint's own case");
@@ -144,11 +152,25 @@ void define_command_line(CLI::App& app, CommandLine& cl) {
       ->capture_default_str();
   run->add_option("--restart", cl.restart_file, "continue from a checkpoint (output/checkpoint_interval writes them)")
       ->type_name("CHECKPOINT.h5");
+  run->add_option_function<std::string>(
+         "--wall-time",
+         [&cl](const std::string& text) {
+           int h = 0, m = 0, s = 0;
+           char extra = 0;
+           if (std::sscanf(text.c_str(), "%d:%d:%d%c", &h, &m, &s, &extra) != 3 || h < 0 || m < 0 || m > 59 || s < 0 ||
+               s > 59 || h * 3600 + m * 60 + s == 0)
+             throw CLI::ValidationError("--wall-time", "expected HH:MM:SS (more than zero); got '" + text + "'");
+           cl.wall_time_seconds = h * 3600.0 + m * 60.0 + s;
+         },
+         "stop before this much wall time, with a checkpoint to continue from (exit code 3); as the batch "
+         "job's limit, minus a margin")
+      ->type_name("HH:MM:SS");
   run->add_flag("--gpu-aware-mpi", cl.gpu_aware_mpi,
                 "pass GPU buffers to MPI directly (default: staged through host memory)");
   run->footer(
       "Under mpirun each rank runs one slab of the grid (case key decomposition) and drives one GPU of its node\n"
-      "(chosen from its node-local rank).");
+      "(chosen from its node-local rank). SIGTERM, SIGINT or --wall-time stop the run after the current step with a\n"
+      "checkpoint (exit code 3); mpmflow run --restart CHECKPOINT.h5 continues it.");
 
   CLI::App* show = app.add_subcommand(
       "case", "print the effective case (after --set, with every default) as JSON: mpmflow case CASE.json [--set ...]");

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <csignal>
 #include <cmath>
 #include <iomanip>
 #include <memory>
@@ -168,7 +169,35 @@ class NullBuffer : public std::streambuf {
 
 }  // namespace
 
+namespace {
+// The signal that asked the run to stop (0: none). A signal handler can do nothing but set a flag
+// of this type, so it is the one variable of the program at namespace scope.
+volatile std::sig_atomic_t stop_signal = 0;
+extern "C" void request_stop(int signal_number) { stop_signal = signal_number; }
+
+// SIGTERM and SIGINT set stop_signal while a run is in progress; the previous handlers return after.
+class StopSignals {
+ public:
+  StopSignals() {
+    stop_signal = 0;
+    previous_term_ = std::signal(SIGTERM, request_stop);
+    previous_int_ = std::signal(SIGINT, request_stop);
+  }
+  ~StopSignals() {
+    std::signal(SIGTERM, previous_term_);
+    std::signal(SIGINT, previous_int_);
+  }
+  StopSignals(const StopSignals&) = delete;
+  StopSignals& operator=(const StopSignals&) = delete;
+
+ private:
+  void (*previous_term_)(int) = SIG_DFL;
+  void (*previous_int_)(int) = SIG_DFL;
+};
+}  // namespace
+
 RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, std::ostream& root_log) {
+  const StopSignals stop_signals;
   check_case_supported(config);
   ParallelContext context;
   context.gpu_aware = options.gpu_aware_mpi;
@@ -279,9 +308,12 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 #ifdef MPMFLOW_HAVE_HDF5
   long last_checkpoint_step = -1;
 #endif
-  auto write_checkpoint_now = [&]() {
+  std::string last_checkpoint_path;
+  double checkpoint_seconds = 0;  // how long the last checkpoint took to write
+  auto write_checkpoint_now = [&](bool even_without_interval = false) {
 #ifdef MPMFLOW_HAVE_HDF5
-    if (checkpoint_interval <= 0 || last_checkpoint_step == solver.step_count()) return;
+    if ((checkpoint_interval <= 0 && !even_without_interval) || last_checkpoint_step == solver.step_count()) return;
+    Kokkos::Timer checkpoint_timer;
     auto scope = solver.timers().scope(Phase::checkpoint);
     RunClock clock{t, solver.step_count(), next_snapshot, summary.initial_totals, solver.node_mass_threshold()};
     clock.entry_distance = solver.open_sides().entry_distance();
@@ -290,6 +322,8 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     const std::string path =
         write_checkpoint(config.output.directory, config.name, solver, clock, config.output.checkpoints_kept);
     last_checkpoint_step = solver.step_count();
+    last_checkpoint_path = path;
+    checkpoint_seconds = checkpoint_timer.seconds();
     log << "  checkpoint at step " << solver.step_count() << ", t = " << t << ": " << path << std::endl;
 #endif
   };
@@ -363,6 +397,19 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     if (checkpoint_interval > 0 && solver.step_count() % checkpoint_interval == 0) write_checkpoint_now();
 #endif
     const double elapsed = wall.seconds();
+    // A signal, or the wall-time limit within reach (two more steps at the mean pace so far and a
+    // checkpoint): every rank stops after the same step (the decision is taken together).
+    {
+      const double seconds_per_step = elapsed / double(solver.step_count() - first_step);
+      const bool near_limit = options.wall_time_seconds > 0 &&
+                              elapsed + 2 * seconds_per_step + 2 * checkpoint_seconds + 1 > options.wall_time_seconds;
+      const int local = stop_signal == SIGTERM ? 2 : stop_signal == SIGINT ? 3 : near_limit ? 1 : 0;
+      const int reason = static_cast<int>(solver.context().max(double(local)));
+      if (reason > 0 && t < end_time) {
+        summary.stopped_by = reason == 2 ? "SIGTERM" : reason == 3 ? "SIGINT" : "the wall-time limit";
+        break;
+      }
+    }
     if (elapsed - last_report >= options.progress_interval_seconds) {
       last_report = elapsed;
       const double rate = double(current_particles) * (solver.step_count() - first_step) / elapsed;
@@ -378,7 +425,15 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 
   summary.final_totals = global_totals(diagnostics, solver);
   summary.final_fluxes = global_fluxes(solver);
-  if (!last_state_written && snapshots > 0) {
+  if (!summary.stopped_by.empty()) {
+    // Stopped early: a checkpoint to continue from, and no snapshot off the schedule.
+#ifdef MPMFLOW_HAVE_HDF5
+    write_checkpoint_now(/*even_without_interval=*/true);
+    summary.stop_checkpoint = last_checkpoint_path;
+#endif
+    log << "stopped by " << summary.stopped_by << " after step " << solver.step_count() << " (t = " << t
+        << "); continue with: mpmflow run --restart " << summary.stop_checkpoint << "\n";
+  } else if (!last_state_written && snapshots > 0) {
     write_output(t, summary.final_totals, summary.final_fluxes);
     ++next_snapshot;
   }

@@ -14,6 +14,9 @@ struct RunOptions {
   std::string restart_file;  // continue from this checkpoint; empty: start at t = 0
   std::string device_description;  // the GPU this rank drives, for the banner (empty on CPUs)
   bool gpu_aware_mpi = false;      // hand device buffers to MPI directly (else staged through the host)
+  // Stop (checkpoint and return, RunSummary::stopped_by) before this much wall time has passed;
+  // 0: no limit. SIGTERM and SIGINT stop the run the same way.
+  double wall_time_seconds = 0;
 };
 
 struct RunSummary {
@@ -26,6 +29,10 @@ struct RunSummary {
   ConservationTotals final_totals;
   BoundaryFluxes final_fluxes;  // through the open sides since t = 0
   std::string output_directory;  // empty when nothing was written
+  // Why the run stopped before its end ("SIGTERM", "SIGINT", "the wall-time limit"), empty when it
+  // ran to the end; and the checkpoint it wrote then, to continue from.
+  std::string stopped_by;
+  std::string stop_checkpoint;
 };
 
 // Throws ConfigError when the case asks for something this build cannot do (output without HDF5).
