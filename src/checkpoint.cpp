@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "hdf5_io.hpp"
+#include "run_files.hpp"
 #include "open_boundaries.hpp"
 #include "solver.hpp"
 
@@ -57,6 +58,7 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
   h5::write_file_safely(path, context, [&](hid_t file) {
     h5::write_string_attribute(file, "case", case_name);
     h5::write_string_attribute(file, "effective_case", effective_case_json(solver.config()));
+    h5::write_string_attribute(file, "run_id", clock.run_id);
     h5::write_attribute(file, "time", clock.time);
     h5::write_attribute(file, "step", static_cast<double>(clock.step));
     h5::write_attribute(file, "next_snapshot", clock.next_snapshot);
@@ -96,7 +98,9 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
       const std::string prefix = checkpoint_prefix(case_name);
       for (const auto& entry : std::filesystem::directory_iterator(directory)) {
         const std::string file = entry.path().filename().string();
-        if (file.rfind(prefix, 0) == 0 && file.size() > 3 && file.compare(file.size() - 3, 3, ".h5") == 0)
+        // Only this run's checkpoints: another run's in the same folder are not ours to prune.
+        if (file.rfind(prefix, 0) == 0 && file.size() > 3 && file.compare(file.size() - 3, 3, ".h5") == 0 &&
+            run_id_of_file(directory + "/" + file) == clock.run_id)
           existing.push_back(file);
       }
       std::sort(existing.begin(), existing.end());  // zero-padded steps: oldest first
@@ -151,6 +155,7 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
                           "limit and the description");
     }
     RunClock& clock = restart.clock;
+    if (H5Aexists(file, "run_id") > 0) clock.run_id = h5::read_string_attribute(file, "run_id");
     clock.time = h5::read_attribute(file, "time");
     clock.step = static_cast<long>(h5::read_attribute(file, "step"));
     if (!(std::isfinite(clock.time) && clock.time >= 0 && clock.step >= 0))

@@ -27,6 +27,7 @@ struct RunClock {
   std::vector<double> entry_distance;  // how far the free stream outside the open sides has moved
   // The obstacles' impulse since the last output: {time, x0, y0, x1, ...}, the same on every rank.
   std::vector<double> obstacle_impulse;
+  std::string run_id;  // the run the checkpoint belongs to ("" from an older mpmflow)
   // Through the open sides since t = 0: written, each rank's own; read, this rank's own (same rank
   // count: the sums continue bitwise) or, on another rank count, the global ones on rank 0.
   BoundaryFluxes fluxes;

@@ -48,6 +48,7 @@ struct CommandLine {
   double progress_interval = 2.0;
   std::string restart_file;
   bool gpu_aware_mpi = false;
+  bool overwrite = false;
   double wall_time_seconds = 0;
   // riemann
   std::vector<double> left, right, x_range = {0, 1};
@@ -123,6 +124,7 @@ int run_case(const CommandLine& cl, const mpmflow::CaseConfig& config, const std
   options.gpu_aware_mpi = cl.gpu_aware_mpi;
   options.device_description = device;
   options.wall_time_seconds = cl.wall_time_seconds;
+  options.overwrite = cl.overwrite;
   const mpmflow::RunSummary summary = mpmflow::run_simulation(config, options, std::cout);
   return summary.stopped_by.empty() ? 0 : kExitStoppedEarly;
 }
@@ -165,6 +167,9 @@ void define_command_line(CLI::App& app, CommandLine& cl) {
          "stop before this much wall time, with a checkpoint to continue from (exit code 3); as the batch "
          "job's limit, minus a margin")
       ->type_name("HH:MM:SS");
+  run->add_flag("--overwrite", cl.overwrite,
+                "remove another run's files of the case from the output folder first (a run refuses to mix "
+                "with them otherwise)");
   run->add_flag("--gpu-aware-mpi", cl.gpu_aware_mpi,
                 "pass GPU buffers to MPI directly (default: staged through host memory)");
   run->footer(

@@ -147,8 +147,9 @@ void write_particle_field(hid_t group, const char* name, const ViewType& view, i
 
 }  // namespace
 
-SnapshotWriter::SnapshotWriter(std::string directory, std::string case_name, const ParallelContext& context)
-    : directory_(std::move(directory)), case_name_(std::move(case_name)), context_(context) {
+SnapshotWriter::SnapshotWriter(std::string directory, std::string case_name, const ParallelContext& context,
+                               std::string run_id)
+    : directory_(std::move(directory)), case_name_(std::move(case_name)), run_id_(std::move(run_id)), context_(context) {
   h5::require_parallel_if_distributed(context_);
   if (context_.is_root()) std::filesystem::create_directories(directory_);
   context_.barrier();
@@ -194,6 +195,7 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
     h5::write_attribute(file, "step", static_cast<double>(step));
     h5::write_attribute(file, "num_ranks", static_cast<double>(context_.size()));
     h5::write_string_attribute(file, "case", case_name_);
+    h5::write_string_attribute(file, "run_id", run_id_);
     // The case as it ran (mpmflow case prints the same): what produced this file.
     h5::write_string_attribute(file, "effective_case", effective_case_json(solver.config()));
     h5::write_string_attribute(file, "layout",
@@ -439,6 +441,7 @@ void SnapshotWriter::write_mesh_file() const {
   const ParallelContext alone = ParallelContext::self();  // this rank alone: plain (serial) HDF5 access
   h5::write_file_safely(path, alone, [&](hid_t file) {
     const hsize_t num_points = static_cast<hsize_t>(points.size() / 2), num_cells = static_cast<hsize_t>(cells.size() / 4);
+    h5::write_string_attribute(file, "run_id", run_id_);
     h5::write_block(file, "points", {num_points, 2}, {0, 0}, {num_points, 2}, points.data(), alone);
     h5::write_block(file, "cells", {num_cells, 4}, {0, 0}, {num_cells, 4}, cells.data(), alone);
   });

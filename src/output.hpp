@@ -36,7 +36,8 @@ class SnapshotWriter {
  public:
   // Creates `directory` if needed. Files are named <case_name>_<index>.h5. All ranks of
   // `context` write every snapshot together (collective calls); rank 0 writes the XDMF.
-  SnapshotWriter(std::string directory, std::string case_name, const ParallelContext& context);
+  SnapshotWriter(std::string directory, std::string case_name, const ParallelContext& context,
+                 std::string run_id = "");
 
   // After a restart: takes the snapshots 0 .. num_written - 1 already in the directory into the
   // XDMF time series.
@@ -69,6 +70,7 @@ class SnapshotWriter {
 
   std::string directory_;
   std::string case_name_;
+  std::string run_id_;  // written into every file (run_files.hpp)
   ParallelContext context_;
   std::vector<Record> records_;
   // Owned grid nodes written, and their geometry, for the XDMF topology.

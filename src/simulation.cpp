@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <csignal>
+#include <filesystem>
 #include <cmath>
 #include <iomanip>
 #include <memory>
@@ -14,6 +15,7 @@
 
 #include "checkpoint.hpp"
 #include "hdf5_io.hpp"
+#include "run_files.hpp"
 #include "output.hpp"
 #include "parallel.hpp"
 #include "particles.hpp"
@@ -223,6 +225,33 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     restart.particles = create_initial_particles(
         config, make_grid_slab(config.domain, d.axis, d.begin(context.rank()), d.end(context.rank())));
   }
+  // The run's id: the checkpoint's on a restart (the same run goes on), a new one otherwise. Its
+  // folder must not hold another run's files of the case (they would mix with its own, and
+  // pruning or the tools would take one for the other).
+  std::string run_id = restarting ? restart.clock.run_id : (context.is_root() ? new_run_id(config.name) : "");
+  context.broadcast(run_id);
+  {
+    std::string conflict;
+    if (context.is_root()) {
+      try {
+        const OtherRunFiles other = files_of_other_runs(config.output.directory, config.name, run_id);
+        if (!other.files.empty() && options.overwrite) {
+          remove_run_files(config.output.directory, config.name, other.files);
+          log << "removed " << other.files.size() << " files of run " << (other.run_id.empty() ? "(unknown)" : other.run_id)
+              << " from " << config.output.directory << " (--overwrite)\n";
+        } else if (!other.files.empty()) {
+          conflict = config.output.directory + " holds " + std::to_string(other.files.size()) + " files of another run of " +
+                     config.name + " (run " + (other.run_id.empty() ? "of an older mpmflow" : other.run_id) + ", e.g. " +
+                     other.files.front() + "); expected a folder without them: give --overwrite to remove them " +
+                     "first, or another --output";
+        }
+      } catch (const std::exception& e) {
+        conflict = e.what();
+      }
+    }
+    context.broadcast(conflict);
+    if (!conflict.empty()) throw ConfigError(conflict);
+  }
   Solver solver(config, context, restart.decomposition, std::move(restart.particles));
   solver.set_step_count(restart.clock.step);
   if (restarting) {
@@ -265,10 +294,16 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   long long current_particles = n;
   const int snapshots = config.output.snapshots;
 #ifdef MPMFLOW_HAVE_HDF5
+  // The run's files, listed as they are written (rank 0).
+  std::unique_ptr<RunManifest> manifest;
+  if (context.is_root() && (config.output.snapshots > 0 || config.output.checkpoint_interval > 0)) {
+    std::filesystem::create_directories(config.output.directory);
+    manifest = std::make_unique<RunManifest>(config.output.directory, config.name, run_id);
+  }
   std::unique_ptr<SnapshotWriter> writer;
   std::unique_ptr<DiagnosticsLog> diagnostics_log;
   if (snapshots > 0) {
-    writer = std::make_unique<SnapshotWriter>(config.output.directory, config.name, context);
+    writer = std::make_unique<SnapshotWriter>(config.output.directory, config.name, context, run_id);
     if (context.is_root()) {
       diagnostics_log = std::make_unique<DiagnosticsLog>(config.output.directory + "/diagnostics.csv");
       if (restarting) diagnostics_log->resume(restart.clock.step);
@@ -297,6 +332,11 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     const DiagnosticColumns forces = obstacle_force_columns(config, solver.take_mean_obstacle_forces());
     const std::string path = writer->write(next_snapshot, solver.step_count(), t, solver, totals, fluxes, forces);
     if (diagnostics_log) diagnostics_log->append(solver.step_count(), t, totals, fluxes, forces);
+    if (manifest) {
+      for (const std::string& name : {std::filesystem::path(path).filename().string(), config.name + "_particles.xmf",
+                                      config.name + "_grid.xmf", config.name + "_grid_mesh.h5", std::string("diagnostics.csv")})
+        manifest->add(name);
+    }
     log << "  output " << next_snapshot << " at t = " << t << ": " << path << std::endl;
 #else
     (void)t;
@@ -316,6 +356,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     Kokkos::Timer checkpoint_timer;
     auto scope = solver.timers().scope(Phase::checkpoint);
     RunClock clock{t, solver.step_count(), next_snapshot, summary.initial_totals, solver.node_mass_threshold()};
+    clock.run_id = run_id;
     clock.entry_distance = solver.open_sides().entry_distance();
     clock.obstacle_impulse = solver.obstacle_impulse();
     clock.fluxes = solver.open_sides().fluxes();
@@ -323,6 +364,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
         write_checkpoint(config.output.directory, config.name, solver, clock, config.output.checkpoints_kept);
     last_checkpoint_step = solver.step_count();
     last_checkpoint_path = path;
+    if (manifest) manifest->add(std::filesystem::path(path).filename().string());
     checkpoint_seconds = checkpoint_timer.seconds();
     log << "  checkpoint at step " << solver.step_count() << ", t = " << t << ": " << path << std::endl;
 #endif

@@ -17,6 +17,9 @@ struct RunOptions {
   // Stop (checkpoint and return, RunSummary::stopped_by) before this much wall time has passed;
   // 0: no limit. SIGTERM and SIGINT stop the run the same way.
   double wall_time_seconds = 0;
+  // Remove another run's files of the case from the output folder first, instead of refusing to
+  // run there (run_files.hpp).
+  bool overwrite = false;
 };
 
 struct RunSummary {

@@ -149,6 +149,33 @@ TEST_F(CommandLine, HostileInputIsRefusedQuickly) {
                   "case.json: /obstacles/0/file: '/dev/zero' is not a regular file");
 }
 
+#ifdef MPMFLOW_HAVE_HDF5
+// Files belong to a run: a second run into a folder holding the first run's files refuses (exit 2,
+// nothing touched) unless told to remove them (--overwrite); the manifest names the run and lists
+// its files.
+TEST_F(CommandLine, ARunDoesNotMixWithAnotherRunsFiles) {
+  write_case("case.json", sod_text_);
+  const std::string run = "run case.json --output out --set domain/cells_x=20 --set output/snapshots=2";
+  ASSERT_EQ(run_mpmflow(run, dir_).exit_code, 0);
+  const std::string first_manifest = read_text(dir_ / "out" / "sod_manifest.json");
+  EXPECT_NE(first_manifest.find("\"run_id\": \"sod-"), std::string::npos) << first_manifest;
+  EXPECT_NE(first_manifest.find("\"sod_000002.h5\""), std::string::npos) << first_manifest;
+  const auto first_write = fs::last_write_time(dir_ / "out" / "sod_000002.h5");
+
+  const CommandResult again = run_mpmflow(run, dir_);
+  EXPECT_EQ(again.exit_code, 2) << again.output;
+  EXPECT_NE(again.output.find("holds 3 files of another run of sod"), std::string::npos) << again.output;
+  EXPECT_NE(again.output.find("give --overwrite"), std::string::npos) << again.output;
+  EXPECT_EQ(fs::last_write_time(dir_ / "out" / "sod_000002.h5"), first_write);  // untouched
+  EXPECT_EQ(read_text(dir_ / "out" / "sod_manifest.json"), first_manifest);
+
+  const CommandResult overwritten = run_mpmflow(run + " --overwrite", dir_);
+  EXPECT_EQ(overwritten.exit_code, 0) << overwritten.output;
+  EXPECT_NE(overwritten.output.find("removed 3 files of run sod-"), std::string::npos) << overwritten.output;
+  EXPECT_NE(read_text(dir_ / "out" / "sod_manifest.json"), first_manifest);  // a new run id
+}
+#endif
+
 // A case whose speeds make the time step absurdly small stops at once, naming the particle that
 // sets it, instead of running for ever.
 TEST_F(CommandLine, CollapsingTimeStepStopsNamingTheParticle) {
