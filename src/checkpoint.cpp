@@ -132,7 +132,14 @@ std::string read_checkpoint_case(const std::string& path) {
 
 RestartState read_checkpoint(const std::string& path, const CaseConfig& config, const ParallelContext& context) {
   h5::require_parallel_if_distributed(context);
-  if (!std::filesystem::exists(path)) throw CollectiveError("--restart " + path + ": no such checkpoint file");
+  // Every rank opens the file: one that cannot see it (a node without the file system) must stop
+  // all of them, not leave the others waiting in the collective open.
+  std::error_code ec;
+  const bool visible = std::filesystem::is_regular_file(path, ec);
+  const int lowest_blind_rank = static_cast<int>(context.min(visible ? context.size() : context.rank()));
+  if (lowest_blind_rank < context.size())
+    throw CollectiveError("--restart " + path + ": no such checkpoint file" +
+                          (context.distributed() ? " (on rank " + std::to_string(lowest_blind_rank) + ")" : std::string()));
   RestartState restart;
   restart.path = path;
   try {

@@ -84,7 +84,25 @@ int print_riemann_solution(const CommandLine& cl) {
 // What a case came from, for messages: its file, or the checkpoint it was taken from.
 std::string source_of(const CommandLine& cl) { return cl.case_file.empty() ? cl.restart_file : cl.case_file; }
 
+// Under mpirun every rank must be given the same command line (a rank given another --output
+// would wait for the others in a collective write for ever): compared with rank 0's, and a
+// difference stops every rank, naming the first rank that differs.
+void check_same_command_line(const CommandLine& cl, const mpmflow::ParallelContext& context) {
+  if (!context.distributed()) return;
+  std::string mine = cl.case_file + '\n' + cl.output_directory + '\n' + cl.restart_file + '\n' +
+                     std::to_string(cl.wall_time_seconds) + '\n' + (cl.overwrite ? "overwrite" : "") + '\n';
+  for (const std::string& o : cl.overrides) mine += o + '\n';
+  std::string root = mine;
+  context.broadcast(root);
+  const int first_different = static_cast<int>(context.min(root == mine ? context.size() : context.rank()));
+  if (first_different < context.size())
+    throw mpmflow::ConfigError("rank " + std::to_string(first_different) +
+                               " was given another command line than rank 0 (case file, --output, --restart, --set, "
+                               "--wall-time or --overwrite); expected the same on every rank");
+}
+
 mpmflow::CaseConfig load_case_on_root(const CommandLine& cl, const mpmflow::ParallelContext& context) {
+  check_same_command_line(cl, context);
   std::string error, text, files;
   mpmflow::CaseConfig config;
   if (context.is_root()) {
