@@ -23,7 +23,8 @@ packages=(build-essential cmake dpkg-dev pkg-config
   openmpi-bin libopenmpi-dev libhdf5-openmpi-dev nlohmann-json3-dev libcli11-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   python3-h5py python3-matplotlib python3-numpy
-  python3-jsonschema python3-paraview xvfb xauth python3-meshio)
+  python3-jsonschema python3-paraview xvfb xauth python3-meshio
+  clang libomp-dev)
 
 missing=()
 for pkg in "${packages[@]}"; do

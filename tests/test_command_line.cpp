@@ -155,8 +155,13 @@ TEST_F(CommandLine, HostileInputIsRefusedQuickly) {
 // its files.
 TEST_F(CommandLine, ARunDoesNotMixWithAnotherRunsFiles) {
   write_case("case.json", sod_text_);
-  const std::string run = "run case.json --output out --set domain/cells_x=20 --set output/snapshots=2";
+  const std::string run = "run case.json --output out --set domain/cells_x=20 --set output/snapshots=2 "
+                          "--set output/checkpoint_interval=5 --set output/checkpoints_kept=0";
   ASSERT_EQ(run_mpmflow(run, dir_).exit_code, 0);
+  size_t checkpoints = 0;
+  for (const auto& entry : fs::directory_iterator(dir_ / "out"))
+    checkpoints += entry.path().filename().string().find("_checkpoint_") != std::string::npos;
+  ASSERT_GT(checkpoints, 2u);
   const std::string first_manifest = read_text(dir_ / "out" / "sod_manifest.json");
   EXPECT_NE(first_manifest.find("\"run_id\": \"sod-"), std::string::npos) << first_manifest;
   EXPECT_NE(first_manifest.find("\"sod_000002.h5\""), std::string::npos) << first_manifest;
@@ -164,14 +169,18 @@ TEST_F(CommandLine, ARunDoesNotMixWithAnotherRunsFiles) {
 
   const CommandResult again = run_mpmflow(run, dir_);
   EXPECT_EQ(again.exit_code, 2) << again.output;
-  EXPECT_NE(again.output.find("holds 3 files of another run of sod"), std::string::npos) << again.output;
+  EXPECT_NE(again.output.find("files of another run of sod"), std::string::npos) << again.output;
   EXPECT_NE(again.output.find("give --overwrite"), std::string::npos) << again.output;
   EXPECT_EQ(fs::last_write_time(dir_ / "out" / "sod_000002.h5"), first_write);  // untouched
   EXPECT_EQ(read_text(dir_ / "out" / "sod_manifest.json"), first_manifest);
+  size_t checkpoints_after = 0;  // none pruned by the refused run
+  for (const auto& entry : fs::directory_iterator(dir_ / "out"))
+    checkpoints_after += entry.path().filename().string().find("_checkpoint_") != std::string::npos;
+  EXPECT_EQ(checkpoints_after, checkpoints);
 
   const CommandResult overwritten = run_mpmflow(run + " --overwrite", dir_);
   EXPECT_EQ(overwritten.exit_code, 0) << overwritten.output;
-  EXPECT_NE(overwritten.output.find("removed 3 files of run sod-"), std::string::npos) << overwritten.output;
+  EXPECT_NE(overwritten.output.find("files of run sod-"), std::string::npos) << overwritten.output;
   EXPECT_NE(read_text(dir_ / "out" / "sod_manifest.json"), first_manifest);  // a new run id
 }
 #endif
