@@ -55,6 +55,8 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
         throw std::runtime_error(written + ": particle field " + field.label() + " reads back short");
     });
   };
+  int particle_fields = 0;
+  pt.for_each_field([&](const auto&) { ++particle_fields; });
   h5::write_file_safely(path, context, [&](hid_t file) {
     h5::write_string_attribute(file, "case", case_name);
     h5::write_string_attribute(file, "effective_case", effective_case_json(solver.config()));
@@ -91,7 +93,7 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
       auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), field);
       h5::write_block(group, field.label().c_str(), {total}, {offset}, {static_cast<hsize_t>(n)}, host.data(), context);
     });
-  }, verify);
+  }, verify, /*expected_bytes=*/8.0 * double(total) * particle_fields);
   if (context.is_root()) {
     if (keep > 0) {
       std::vector<std::string> existing;

@@ -2,6 +2,7 @@
 
 #ifdef MPMFLOW_HAVE_HDF5
 #include <fcntl.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -86,9 +87,27 @@ void silence_error_printing() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
 
 void write_file_safely(const std::string& path, const ParallelContext& context,
                        const std::function<void(hid_t file)>& fill,
-                       const std::function<void(const std::string& temporary)>& verify) {
+                       const std::function<void(const std::string& temporary)>& verify, double expected_bytes) {
   const std::string temporary = path + ".tmp";
   std::string error;
+  if (context.distributed() && expected_bytes > 0) {
+    // 10 % and 1 MB more than the datasets, for HDF5's own structures.
+    if (context.is_root()) {
+      const std::string directory =
+          std::filesystem::path(path).parent_path().empty() ? "." : std::filesystem::path(path).parent_path().string();
+      struct statvfs space {};
+      if (::statvfs(directory.c_str(), &space) == 0) {
+        const double free_bytes = double(space.f_bavail) * double(space.f_frsize);
+        const double needed = 1.1 * expected_bytes + 1e6;
+        if (free_bytes < needed)
+          error = "not enough free space in " + directory + ": about " + std::to_string(static_cast<long long>(needed)) +
+                  " bytes needed, " + std::to_string(static_cast<long long>(free_bytes)) + " free (" +
+                  std::strerror(ENOSPC) + ")";
+      }
+    }
+    context.broadcast(error);
+    if (!error.empty()) throw CollectiveError("writing " + path + " failed (earlier files are kept): " + error);
+  }
   if (!context.distributed()) {
     // One rank: the file is built in memory (HDF5's core driver) and written with plain, checked
     // system calls. A full disk is then an error of write(2), never one of HDF5's own closing

@@ -59,9 +59,14 @@ class Handle {
 // `verify` (rank 0 alone, given the temporary's path; optional), and renamed into place. A failure
 // on any rank removes the temporary and throws CollectiveError on every rank, naming the file and
 // the reason; the files written before are untouched. Collective.
+//
+// Across ranks the file is written through MPI-IO, where a write that fails on one rank can leave
+// the others waiting: there, `expected_bytes` (the datasets' size) is checked against the free
+// space first, and a file that would not fit is refused before anything is written.
 void write_file_safely(const std::string& path, const ParallelContext& context,
                        const std::function<void(hid_t file)>& fill,
-                       const std::function<void(const std::string& temporary)>& verify = {});
+                       const std::function<void(const std::string& temporary)>& verify = {},
+                       double expected_bytes = 0);
 
 // Opens `path` read-only on this rank alone (a check of a file just written).
 inline hid_t open_file_here(const std::string& path) { return H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT); }

@@ -323,7 +323,7 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
       h5::write_attribute(group, "spacing_x", grid_spacing_x_);
       h5::write_attribute(group, "spacing_y", grid_spacing_y_);
     }
-  });
+  }, {}, /*expected_bytes=*/8.0 * (11.0 * double(total) + 9.0 * double(slab.global_cells_x + 1) * (slab.global_cells_y + 1)));
 
   records_.push_back({name, time, static_cast<long>(total)});
   if (context_.is_root()) {

@@ -3,9 +3,10 @@
 # leaves no temporary file, and every file it left is whole: the snapshots open, the checkpoints
 # read back and a restart from the newest one runs. Exits 77 (skipped) where a tmpfs cannot be
 # mounted (not root, or a container without the right).
-# Usage: full_disk.sh MPMFLOW_BINARY SOURCE_DIR WORK_DIR
+# With MPIEXEC, also on 2 ranks (one file written through MPI-IO): the job must end, not hang.
+# Usage: full_disk.sh MPMFLOW_BINARY SOURCE_DIR WORK_DIR [MPIEXEC]
 set -euo pipefail
-binary=$1 source_dir=$2 work_dir=$3
+binary=$1 source_dir=$2 work_dir=$3 mpiexec=${4:-}
 rm -rf "$work_dir"
 mkdir -p "$work_dir/disk"
 if ! mount -t tmpfs -o size=4m tmpfs "$work_dir/disk" 2>/dev/null; then
@@ -55,3 +56,17 @@ PY
     > "$work_dir/restart.log" 2>&1 || { tail -3 "$work_dir/restart.log"; echo "FAIL: restart from $newest"; exit 1; }
   echo "restart from $(basename "$newest") ran to the end"
 done
+if [ -n "$mpiexec" ]; then
+  echo "== 2 ranks, 10 snapshots and a checkpoint every 5 steps, into 4m"
+  rm -rf "$work_dir/disk/out"
+  mount -o remount,size=4m "$work_dir/disk"
+  status=0
+  OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 timeout 120 "$mpiexec" -n 2 --oversubscribe "$binary" run \
+    "${base_args[@]}" --set output/snapshots=10 --output "$work_dir/disk/out" > "$work_dir/ranks2.log" 2>&1 || status=$?
+  grep "mpmflow: error" "$work_dir/ranks2.log" || true
+  [ "$status" -ne 124 ] || { echo "FAIL: 2 ranks on a full disk hang"; exit 1; }
+  [ "$status" -eq 1 ] && grep -q "^mpmflow: error: writing .* failed (earlier files are kept)" "$work_dir/ranks2.log" \
+    || { echo "FAIL: 2 ranks: exit $status without the one-line error"; exit 1; }
+  if ls "$work_dir/disk/out" | grep -q "\.tmp$"; then echo "FAIL: 2 ranks: temporary files left"; exit 1; fi
+fi
+echo "full disk: OK"
