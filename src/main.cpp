@@ -50,6 +50,7 @@ struct CommandLine {
   bool gpu_aware_mpi = false;
   bool overwrite = false;
   double wall_time_seconds = 0;
+  double max_memory_gb = 0;
   // riemann
   std::vector<double> left, right, x_range = {0, 1};
   double x0 = 0, time = 0, gamma = 1.4;
@@ -90,7 +91,8 @@ std::string source_of(const CommandLine& cl) { return cl.case_file.empty() ? cl.
 void check_same_command_line(const CommandLine& cl, const mpmflow::ParallelContext& context) {
   if (!context.distributed()) return;
   std::string mine = cl.case_file + '\n' + cl.output_directory + '\n' + cl.restart_file + '\n' +
-                     std::to_string(cl.wall_time_seconds) + '\n' + (cl.overwrite ? "overwrite" : "") + '\n';
+                     std::to_string(cl.wall_time_seconds) + '\n' + std::to_string(cl.max_memory_gb) + '\n' +
+                     (cl.overwrite ? "overwrite" : "") + '\n';
   for (const std::string& o : cl.overrides) mine += o + '\n';
   std::string root = mine;
   context.broadcast(root);
@@ -131,7 +133,7 @@ mpmflow::CaseConfig load_case_on_root(const CommandLine& cl, const mpmflow::Para
   }
   if (!cl.output_directory.empty()) config.output.directory = cl.output_directory;
   mpmflow::check_case_supported(config);
-  mpmflow::check_memory(config, context.size());
+  mpmflow::check_memory(config, context.size(), cl.max_memory_gb * 1e9);
   return config;
 }
 
@@ -185,6 +187,10 @@ void define_command_line(CLI::App& app, CommandLine& cl) {
          "stop before this much wall time, with a checkpoint to continue from (exit code 3); as the batch "
          "job's limit, minus a margin")
       ->type_name("HH:MM:SS");
+  run->add_option("--max-memory", cl.max_memory_gb,
+                  "refuse a case needing more than this many GB per rank (default: the machine's memory)")
+      ->type_name("GB")
+      ->check(CLI::PositiveNumber);
   run->add_flag("--overwrite", cl.overwrite,
                 "remove another run's files of the case from the output folder first (a run refuses to mix "
                 "with them otherwise)");

@@ -105,17 +105,19 @@ std::string describe_build(bool with_concurrency) {
 std::string version_description() { return describe_build(false); }
 std::string build_description() { return describe_build(true); }
 
-void check_memory(const CaseConfig& config, int num_ranks) {
+void check_memory(const CaseConfig& config, int num_ranks, double max_bytes) {
   const double particles = double(config.domain.cells_x) * config.domain.cells_y * config.particles.per_cell_x *
                            config.particles.per_cell_y;
   const double nodes = double(config.domain.cells_x + 5) * (config.domain.cells_y + 5);
   const double needed = (200 * particles + 200 * nodes) / std::max(num_ranks, 1);
-  const double available = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGESIZE));
+  const double machine = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGESIZE));
+  const double available = max_bytes > 0 ? max_bytes : machine;
   if (available > 0 && needed > available) {
     std::ostringstream msg;
     msg << config.source << ": /domain: " << config.domain.cells_x << " x " << config.domain.cells_y << " cells and "
         << static_cast<long long>(particles) << " particles need about " << std::setprecision(3) << needed / 1e9
-        << " GB per rank (200 bytes per particle and per node); this machine has " << available / 1e9
+        << " GB per rank (200 bytes per particle and per node); "
+        << (max_bytes > 0 ? "--max-memory allows " : "this machine has ") << available / 1e9
         << " GB; expected a smaller case, or more ranks";
     throw ConfigError(msg.str());
   }

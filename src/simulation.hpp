@@ -53,8 +53,9 @@ std::string version_description();
 
 // Refuses (ConfigError, naming /domain and both figures) a case whose particles and grid would
 // need more memory per rank than this machine has: about 200 bytes per particle (the peak the
-// benchmark measures, spare capacity included) and 200 per grid node.
-void check_memory(const CaseConfig& config, int num_ranks);
+// benchmark measures, spare capacity included) and 200 per grid node; or than `max_bytes` per
+// rank when that is given (> 0; mpmflow run --max-memory).
+void check_memory(const CaseConfig& config, int num_ranks, double max_bytes = 0);
 std::string build_description();
 
 }  // namespace mpmflow

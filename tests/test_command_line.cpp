@@ -138,6 +138,7 @@ TEST_F(CommandLine, HostileInputIsRefusedQuickly) {
   if (double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGESIZE)) < 200e9)
     expect_rejected("run case.json --set domain/cells_x=20000 --set domain/cells_y=15000",
                     "case.json: /domain: 20000 x 15000 cells and 900000000 particles need about");
+  expect_rejected("run case.json --set domain/cells_x=10000 --max-memory 0.001", "--max-memory allows 0.001 GB");
   expect_rejected("run case.json --set 'initial_state/regions/0/x=[2,3]'",
                   "case.json: /initial_state/regions/0: expected a box overlapping the domain");
   expect_rejected("run case.json --set 'obstacles=[{\"type\": \"rectangle\", \"x\": [0, 1], \"y\": [0, 0.01]}]'",
