@@ -25,10 +25,28 @@ PARTICLE_FIELDS = ["position", "velocity", "density", "pressure", "specific_ener
 GRID_FIELDS = ["mass", "velocity", "density", "pressure", "specific_energy", "mach_number"]
 
 
+def run_snapshots(directory):
+    """The snapshots of the run in `directory`, in output order: those its XDMF time series
+    (<case>_particles.xmf) lists (never stale files of another run); without one, <case>_NNNNNN.h5."""
+    series = [f for f in glob.glob(os.path.join(directory, "*_particles.xmf"))
+              if not re.search(r"_\d{6}_particles\.xmf$", f)]
+    if len(series) > 1:
+        sys.exit(f"compare_outputs: {directory} holds the outputs of several cases ({', '.join(sorted(series))})")
+    if series:
+        import xml.etree.ElementTree as ET
+        names = []
+        for item in ET.parse(series[0]).getroot().iter("DataItem"):
+            name = (item.text or "").strip().split(":")[0]
+            if name.endswith(".h5") and name not in names:
+                names.append(name)
+        return [os.path.join(directory, n) for n in names]
+    return sorted(f for f in glob.glob(os.path.join(directory, "*.h5")) if re.search(r"_\d{6}\.h5$", f))
+
+
 def snapshot_path(path, step):
     if os.path.isfile(path):
         return path
-    files = sorted(f for f in glob.glob(os.path.join(path, "*.h5")) if re.search(r"_\d{6}\.h5$", f))
+    files = run_snapshots(path)
     if not files:
         sys.exit(f"compare_outputs: no snapshot files (*_NNNNNN.h5) in {path}")
     if step is None:
@@ -59,8 +77,7 @@ def main():
     args = parser.parse_args()
     if args.all:
         def indices(d):
-            return {int(m.group(1)) for f in glob.glob(os.path.join(d, "*.h5"))
-                    for m in [re.search(r"_(\d{6})\.h5$", f)] if m}
+            return {int(m.group(1)) for f in run_snapshots(d) for m in [re.search(r"_(\d{6})\.h5$", f)] if m}
         common = sorted(indices(args.a) & indices(args.b))
         if len(common) < 2:
             sys.exit(f"compare_outputs: fewer than two snapshots common to {args.a} and {args.b}")
