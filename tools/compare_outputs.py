@@ -21,26 +21,12 @@ import sys
 import h5py
 import numpy as np
 
+# The run's own snapshots (those its XDMF lists): the plotting tool's one definition of them.
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from mpmflow_plot import snapshot_files as run_snapshots  # noqa: E402
+
 PARTICLE_FIELDS = ["position", "velocity", "density", "pressure", "specific_energy", "mass"]
 GRID_FIELDS = ["mass", "velocity", "density", "pressure", "specific_energy", "mach_number"]
-
-
-def run_snapshots(directory):
-    """The snapshots of the run in `directory`, in output order: those its XDMF time series
-    (<case>_particles.xmf) lists (never stale files of another run); without one, <case>_NNNNNN.h5."""
-    series = [f for f in glob.glob(os.path.join(directory, "*_particles.xmf"))
-              if not re.search(r"_\d{6}_particles\.xmf$", f)]
-    if len(series) > 1:
-        sys.exit(f"compare_outputs: {directory} holds the outputs of several cases ({', '.join(sorted(series))})")
-    if series:
-        import xml.etree.ElementTree as ET
-        names = []
-        for item in ET.parse(series[0]).getroot().iter("DataItem"):
-            name = (item.text or "").strip().split(":")[0]
-            if name.endswith(".h5") and name not in names:
-                names.append(name)
-        return [os.path.join(directory, n) for n in names]
-    return sorted(f for f in glob.glob(os.path.join(directory, "*.h5")) if re.search(r"_\d{6}\.h5$", f))
 
 
 def snapshot_path(path, step):
