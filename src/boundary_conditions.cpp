@@ -228,8 +228,14 @@ void move_particles(const ParticleBoundaries& boundaries, const ParticleState& p
     return;
   }
   // (obstacle, {x, y}); few particles touch an obstacle in a step, so a ScatterView is cheap here.
-  Kokkos::View<double**, DeviceType> impulse("obstacle_particle_impulse", num_obstacles, 2);
-  auto scatter = Kokkos::Experimental::create_scatter_view(impulse);
+  if (forces->particle_impulse.extent(0) != num_obstacles) {
+    forces->particle_impulse = ObstacleForces::ImpulseView("obstacle_particle_impulse", num_obstacles, 2);
+    forces->particle_impulse_scatter = Kokkos::Experimental::create_scatter_view(forces->particle_impulse);
+  }
+  ObstacleForces::ImpulseView impulse = forces->particle_impulse;
+  auto scatter = forces->particle_impulse_scatter;
+  Kokkos::deep_copy(impulse, 0.0);
+  scatter.reset();
   Kokkos::parallel_for(
       "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
         real_t ix = 0, iy = 0;

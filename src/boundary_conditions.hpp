@@ -3,6 +3,8 @@
 // their move: the wind tunnel's sides and the obstacles.
 #include <array>
 
+#include <Kokkos_ScatterView.hpp>
+
 #include "case_config.hpp"
 #include "geometry.hpp"
 #include "grid.hpp"
@@ -52,6 +54,11 @@ struct DomainBox {
 // summed over the nodes this slab owns.
 struct ObstacleForces {
   std::vector<double> x, y;
+  // The particles' impulse on each obstacle in the particle move, (obstacle, {x, y}), and its
+  // accumulator: allocated once, not every step (move_particles).
+  using ImpulseView = Kokkos::View<double**, DeviceType>;
+  ImpulseView particle_impulse;
+  decltype(Kokkos::Experimental::create_scatter_view(ImpulseView())) particle_impulse_scatter;
 };
 
 class GridBoundaryConditions {

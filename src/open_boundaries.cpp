@@ -104,19 +104,7 @@ struct AppendEntering {
       // The free stream's tangential velocity and the inward normal speed.
       const real_t v_normal = s.velocity_x * nx + s.velocity_y * ny;
       const real_t vx = s.velocity_x + (speed - v_normal) * nx, vy = s.velocity_y + (speed - v_normal) * ny;
-      pt.position_x(p) = x;
-      pt.position_y(p) = y;
-      pt.velocity_x(p) = vx;
-      pt.velocity_y(p) = vy;
-      pt.grid_velocity_x(p) = vx;
-      pt.grid_velocity_y(p) = vy;
-      pt.mass(p) = candidates.particle_mass;
-      pt.density(p) = s.density;
-      pt.specific_energy(p) = candidates.specific_energy;
-      pt.pressure(p) = s.pressure;
-      pt.artificial_viscosity(p) = 0;
-      pt.domain_stretch_x(p) = 1;
-      pt.domain_stretch_y(p) = 1;
+      set_free_stream_particle(pt, p, x, y, vx, vy, s, candidates.specific_energy, candidates.particle_mass);
       pt.cell(p) = 0;  // the cell map is recomputed after migration
       pt.id(p) = id;
     }

@@ -60,6 +60,27 @@ struct EntrySide {
   double free_stream_inward = 0;  // v_inf . (inward normal)
 };
 
+// Gives particle p of `pt` the free-stream state `s` (its specific energy and particle mass too)
+// at (x, y) with velocity (vx, vy): what a particle entering at an open side starts with, whether
+// newly created or recycled.
+KOKKOS_INLINE_FUNCTION void set_free_stream_particle(const ParticleState& pt, index_t p, real_t x, real_t y, real_t vx,
+                                                     real_t vy, const GasState& s, real_t specific_energy,
+                                                     real_t particle_mass) {
+  pt.position_x(p) = x;
+  pt.position_y(p) = y;
+  pt.velocity_x(p) = vx;
+  pt.velocity_y(p) = vy;
+  pt.grid_velocity_x(p) = vx;
+  pt.grid_velocity_y(p) = vy;
+  pt.mass(p) = particle_mass;
+  pt.density(p) = s.density;
+  pt.specific_energy(p) = specific_energy;
+  pt.pressure(p) = s.pressure;
+  pt.artificial_viscosity(p) = 0;
+  pt.domain_stretch_x(p) = 1;
+  pt.domain_stretch_y(p) = 1;
+}
+
 // The paper's recycling, for particles that have left the domain: each re-enters at a random
 // point of a random inflow cell, in the strip next to the side that the free stream swept clean
 // during the step (depth |v_inf . n| dt, at most one cell), with the free-stream state and particle
@@ -153,19 +174,8 @@ KOKKOS_INLINE_FUNCTION void Recycle::operator()(const index_t k) const {
     domain.point_inside_side(inflow_side[s], t, depth_fraction * strip_depth[s], x, y);
     if (!(has_obstacles && obstacles(x, y).distance < 0)) break;
   }
-  pt.position_x(p) = x;
-  pt.position_y(p) = y;
-  pt.velocity_x(p) = free_stream.velocity_x;
-  pt.velocity_y(p) = free_stream.velocity_y;
-  pt.grid_velocity_x(p) = free_stream.velocity_x;
-  pt.grid_velocity_y(p) = free_stream.velocity_y;
-  pt.density(p) = free_stream.density;
-  pt.pressure(p) = free_stream.pressure;
-  pt.specific_energy(p) = specific_energy;
-  pt.mass(p) = particle_mass;
-  pt.artificial_viscosity(p) = 0;
-  pt.domain_stretch_x(p) = 1;
-  pt.domain_stretch_y(p) = 1;
+  set_free_stream_particle(pt, p, x, y, free_stream.velocity_x, free_stream.velocity_y, free_stream, specific_energy,
+                           particle_mass);
 }
 
 }  // namespace mpmflow
