@@ -213,19 +213,24 @@ ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab&
   std::copy(types.begin(), types.end(), side_type);
 }
 
-void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
-                    ObstacleForces* forces) {
+double move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
+                      ObstacleForces* forces) {
   const ParticleBoundaries rules = boundaries;
   const ParticleState pt = particles;
   const size_t num_obstacles = forces ? forces->x.size() : 0;
+  double stopped = 0;
   if (num_obstacles == 0) {
-    Kokkos::parallel_for(
-        "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
+    Kokkos::parallel_reduce(
+        "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count),
+        KOKKOS_LAMBDA(const index_t p, double& sum) {
           real_t ix, iy;
           index_t o;
-          rules.move(p, dt, pt, ix, iy, o);
-        });
-    return;
+          double lost = 0;
+          rules.move(p, dt, pt, ix, iy, o, lost);
+          sum += lost;
+        },
+        stopped);
+    return stopped;
   }
   // (obstacle, {x, y}); few particles touch an obstacle in a step, so a ScatterView is cheap here.
   if (forces->particle_impulse.extent(0) != num_obstacles) {
@@ -236,21 +241,27 @@ void move_particles(const ParticleBoundaries& boundaries, const ParticleState& p
   auto scatter = forces->particle_impulse_scatter;
   Kokkos::deep_copy(impulse, 0.0);
   scatter.reset();
-  Kokkos::parallel_for(
-      "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
+  Kokkos::parallel_reduce(
+      "particle_move", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count),
+      KOKKOS_LAMBDA(const index_t p, double& sum) {
         real_t ix = 0, iy = 0;
         index_t o = 0;
-        if (!rules.move(p, dt, pt, ix, iy, o)) return;
+        double lost = 0;
+        const bool hit = rules.move(p, dt, pt, ix, iy, o, lost);
+        sum += lost;
+        if (!hit) return;
         auto access = scatter.access();
         access(o, 0) += ix;
         access(o, 1) += iy;
-      });
+      },
+      stopped);
   Kokkos::Experimental::contribute(impulse, scatter);
   auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), impulse);
   for (size_t o = 0; o < num_obstacles; ++o) {
     forces->x[o] += host(o, 0) / dt;
     forces->y[o] += host(o, 1) / dt;
   }
+  return stopped;
 }
 
 }  // namespace mpmflow

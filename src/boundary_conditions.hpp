@@ -99,22 +99,25 @@ struct ParticleBoundaries {
   // Moves particle p by dt V-bar and applies the rules above.
   // Moves particle p; where an obstacle takes its inward normal velocity, returns true with the
   // momentum it took (the particle's loss: the gas's impulse on the obstacle) and the obstacle.
+  // `stopped` gets the kinetic energy the rules took from it.
   KOKKOS_INLINE_FUNCTION bool move(index_t p, real_t dt, const ParticleState& pt, real_t& impulse_x, real_t& impulse_y,
-                                   index_t& obstacle) const;
+                                   index_t& obstacle, double& stopped) const;
 };
 
 // Algorithm 1, step 11: every particle moved by dt V-bar, with the rules above.
 // With `forces`, adds to each obstacle's force the momentum its surface took from the particles
-// over dt (the inward normal velocity of those that entered it).
-void move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
+// over dt (the inward normal velocity of those that entered it). Returns the kinetic energy the
+// particles lost to slip walls and obstacles (the velocity these rules take).
+double move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
                     ObstacleForces* forces = nullptr);
 
 // ---- inline definitions --------------------------------------------------------------------------
 
 KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::move(index_t p, real_t dt, const ParticleState& pt, real_t& impulse_x,
-                                                     real_t& impulse_y, index_t& obstacle) const {
+                                                     real_t& impulse_y, index_t& obstacle, double& stopped) const {
   real_t x = pt.position_x(p) + dt * pt.grid_velocity_x(p);
   real_t y = pt.position_y(p) + dt * pt.grid_velocity_y(p);
+  const real_t kinetic_before = pt.velocity_x(p) * pt.velocity_x(p) + pt.velocity_y(p) * pt.velocity_y(p);
   // Slip walls: mirror, and keep no velocity out of the domain.
   if (x < domain.x_min && side_type[left_side] == BoundaryType::slip_wall) {
     x = 2 * domain.x_min - x;
@@ -137,6 +140,8 @@ KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::move(index_t p, real_t dt, const
   if (domain.outside(x, y)) {
     pt.position_x(p) = x;
     pt.position_y(p) = y;
+    const real_t kinetic_after = pt.velocity_x(p) * pt.velocity_x(p) + pt.velocity_y(p) * pt.velocity_y(p);
+    stopped = 0.5 * double(pt.mass(p)) * double(kinetic_before - kinetic_after);
     return hit;
   }
   if (has_obstacles && cell_near_obstacle(grid.cell_of(x, y, /*include_ghosts=*/true))) {
@@ -158,6 +163,8 @@ KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::move(index_t p, real_t dt, const
   domain.clamp(x, y);  // an obstacle touching a side, a mirror
   pt.position_x(p) = x;
   pt.position_y(p) = y;
+  const real_t kinetic_after = pt.velocity_x(p) * pt.velocity_x(p) + pt.velocity_y(p) * pt.velocity_y(p);
+  stopped = 0.5 * double(pt.mass(p)) * double(kinetic_before - kinetic_after);
   return hit;
 }
 

@@ -522,6 +522,7 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     r.optional_choice("p2g", cfg.numerics.p2g);
     r.optional_choice("shape_function", cfg.numerics.shape_function);
     r.optional_boolean("fused_kernels", cfg.numerics.fused_kernels);
+    r.optional_boolean("energy_consistent", cfg.numerics.energy_consistent);
     r.finish();
   }
 
@@ -629,7 +630,8 @@ std::set<std::string> case_file_keys() {
                       "regions": [{"x": [0, 1], "y": [0, 1], "density": 1, "pressure": 1, "velocity": [0, 0]}]},
     "output": {"directory": "out", "snapshots": 1, "checkpoint_interval": 0, "checkpoints_kept": 2},
     "decomposition": {"axis": "x", "balance_interval": 0},
-    "numerics": {"reorder_interval": 0, "p2g": "automatic", "shape_function": "gimp", "fused_kernels": true}
+    "numerics": {"reorder_interval": 0, "p2g": "automatic", "shape_function": "gimp", "fused_kernels": true,
+                 "energy_consistent": true}
   })";
   PointsFiles outline;
   outline.files["outline.dat"] = {{0, 0}, {1, 0}, {0.5, 0.5}};
@@ -712,7 +714,8 @@ std::string effective_case_json(const CaseConfig& c) {
   e["numerics"] = {{"reorder_interval", c.numerics.reorder_interval},
                    {"p2g", to_string(c.numerics.p2g)},
                    {"shape_function", to_string(c.numerics.shape_function)},
-                   {"fused_kernels", c.numerics.fused_kernels}};
+                   {"fused_kernels", c.numerics.fused_kernels},
+                   {"energy_consistent", c.numerics.energy_consistent}};
   return e.dump(2);
 }
 

@@ -148,6 +148,11 @@ struct NumericsConfig {
   // G2P of velocity and acceleration fused with the momentum remap P2G (steps 6-8): one stencil
   // and one pass over the particles instead of two. false runs the two generic kernels.
   bool fused_kernels = true;
+  // The particles' internal energy gains the work the grid forces do over the step: p dV with the
+  // mean of the grid velocity before and after the step's update, and the same (P + Q) and volume
+  // the forces were made of, so that kinetic + internal energy is conserved to round-off in a
+  // closed box. false: the paper's update, p dV with the remapped end-of-step velocity and the new Q.
+  bool energy_consistent = true;
 };
 
 struct CaseConfig {

@@ -41,12 +41,23 @@ struct ConservationTotals {
   }
 };
 
-// The conservation totals of the particles that entered and of those that left through the open
-// sides so far (this rank's share, summed over the ranks for output). With them the mass balance
-// mass(t) = mass(0) + entered - left closes to round-off.
+// What the boundaries did so far (this rank's share, summed over the ranks for output): the
+// conservation totals of the particles that entered and of those that left through the open
+// sides, and the energy the boundaries gave the gas. With them the balances
+//   mass(t) = mass(0) + mass_in - mass_out,
+//   total_energy(t) = total_energy(0) + (kinetic + internal energy)_in - (...)_out
+//                     + energy_boundary_work - kinetic_energy_stopped
+// close to round-off (the energy balance with numerics/energy_consistent).
 struct BoundaryFluxes {
   ConservationTotals entered;
   ConservationTotals left;
+  // The work of the grid's boundary conditions (inflow velocity, outside pressure and inertia on
+  // open sides, eqs. 21-22 at obstacles; none at slip walls): what the forces the particles feel
+  // do beyond the work of their own pressure (grid_phases.hpp, boundary_work).
+  double boundary_work = 0;
+  // The kinetic energy of the velocity that particles crossing a slip wall or entering an
+  // obstacle lose in the move (boundary_conditions.hpp).
+  double kinetic_energy_stopped = 0;
 
   // Calls f(name, value) for every flux: "<total>_in" and "<total>_out" for every conservation
   // total: the one list for the sums over ranks, diagnostics.csv, snapshots and checkpoints.
@@ -64,6 +75,8 @@ struct BoundaryFluxes {
   static void visit(Self& self, F& f) {
     self.entered.for_each_total([&](const char* name, auto&& value) { f(std::string(name) + "_in", value); });
     self.left.for_each_total([&](const char* name, auto&& value) { f(std::string(name) + "_out", value); });
+    f(std::string("energy_boundary_work"), self.boundary_work);
+    f(std::string("kinetic_energy_stopped"), self.kinetic_energy_stopped);
   }
 };
 

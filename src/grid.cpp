@@ -54,6 +54,17 @@ IndexRange2D GridSlab::index_space(Ownership ownership, Entity entity, Indexing 
           range.end_y + node_offset_y};
 }
 
+IndexRange2D GridSlab::owned_nodes_with_outer_ghosts() const {
+  IndexRange2D range = index_space(Ownership::owned, Entity::node, Indexing::global);
+  if (range.begin_x == 0) range.begin_x -= ghost_layers;
+  if (range.end_x == global_cells_x + 1) range.end_x += ghost_layers;
+  if (range.begin_y == 0) range.begin_y -= ghost_layers;
+  if (range.end_y == global_cells_y + 1) range.end_y += ghost_layers;
+  auto clamp = [](index_t v, index_t n) { return v < 0 ? index_t(0) : (v > n ? n : v); };
+  return {clamp(range.begin_x - node_offset_x, geometry.nodes_x), clamp(range.end_x - node_offset_x, geometry.nodes_x),
+          clamp(range.begin_y - node_offset_y, geometry.nodes_y), clamp(range.end_y - node_offset_y, geometry.nodes_y)};
+}
+
 IndexRange2D GridSlab::shared_node_space(int direction) const {
   const IndexRange2D owned = index_space(Ownership::owned, Entity::cell, Indexing::global);
   const bool has_neighbour = direction < 0 ? owned.begin(axis) > 0 : owned.end(axis) < global_cells(axis);

@@ -82,6 +82,9 @@ struct GridSlab {
   IndexRange2D boundary_node_line(Side side, int layer) const;
   // The nodes of the domain (global nodes 0 .. cells on each axis) held locally, in local indices.
   IndexRange2D domain_node_space() const;
+  // The owned nodes and, where the slab reaches a side of the domain, the ghost nodes beyond it
+  // (which GIMP stencils reach), in local indices: every node a particle touches, each on one slab.
+  IndexRange2D owned_nodes_with_outer_ghosts() const;
 
   // Global cell index along `along` of the point (x, y) (it may lie outside this slab),
   // clamped to the domain: the arithmetic of GridGeometry::cell_of on the global grid.
@@ -130,18 +133,32 @@ struct GridFields {
     num_projection_columns
   };
 
+  // Momentum and force (step 3) and remapped momentum (step 8) as the particles gave them, before
+  // the boundary conditions: for the work those do (energy budget).
+  enum BeforeConditionsColumn : int {
+    raw_momentum_x = 0,
+    raw_momentum_y,
+    raw_force_x,
+    raw_force_y,
+    raw_remap_momentum_x,
+    raw_remap_momentum_y,
+    num_before_conditions_columns
+  };
+
   NodeFieldsView state;
   NodeFieldsView momentum_remap;
   NodeFieldsView per_unit_mass;
+  NodeFieldsView before_conditions;
 
   GridFields() = default;
   explicit GridFields(const GridGeometry& geometry)
       : state("node_state", geometry.num_nodes(), num_state_columns),
         momentum_remap("node_momentum_remap", geometry.num_nodes(), num_remap_columns),
-        per_unit_mass("node_per_unit_mass", geometry.num_nodes(), num_per_unit_mass_columns) {}
+        per_unit_mass("node_per_unit_mass", geometry.num_nodes(), num_per_unit_mass_columns),
+        before_conditions("node_before_conditions", geometry.num_nodes(), num_before_conditions_columns) {}
 
   size_t bytes() const {
-    return (state.span() + momentum_remap.span() + per_unit_mass.span()) * sizeof(real_t);
+    return (state.span() + momentum_remap.span() + per_unit_mass.span() + before_conditions.span()) * sizeof(real_t);
   }
 };
 

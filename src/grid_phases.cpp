@@ -29,14 +29,67 @@ void update_grid_momentum(const GridFields& fields, real_t dt, real_t mass_thres
       });
 }
 
-void compute_remap_velocity(const GridFields& fields, real_t mass_threshold) {
+void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, real_t dt, bool midpoint) {
   const NodeFieldsView state = fields.state, remap = fields.momentum_remap, per_unit_mass = fields.per_unit_mass;
+  // Weights of the remapped and of the old velocity V-bar - dt A.
+  const real_t remap_weight = midpoint ? real_t(0.5) : real_t(1);
+  const real_t old_weight = midpoint ? real_t(0.5) : real_t(0);
   Kokkos::parallel_for(
       "grid_remap_velocity", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))), KOKKOS_LAMBDA(const index_t i) {
         const real_t inv_m = per_unit_node_mass(state(i, GridFields::mass), mass_threshold);
-        per_unit_mass(i, GridFields::remap_velocity_x) = remap(i, GridFields::remap_momentum_x) * inv_m;
-        per_unit_mass(i, GridFields::remap_velocity_y) = remap(i, GridFields::remap_momentum_y) * inv_m;
+        const real_t old_x = per_unit_mass(i, GridFields::velocity_x) - dt * per_unit_mass(i, GridFields::acceleration_x);
+        const real_t old_y = per_unit_mass(i, GridFields::velocity_y) - dt * per_unit_mass(i, GridFields::acceleration_y);
+        per_unit_mass(i, GridFields::remap_velocity_x) =
+            remap_weight * remap(i, GridFields::remap_momentum_x) * inv_m + old_weight * old_x;
+        per_unit_mass(i, GridFields::remap_velocity_y) =
+            remap_weight * remap(i, GridFields::remap_momentum_y) * inv_m + old_weight * old_y;
       });
+}
+
+void keep_momentum_and_force_before_conditions(const GridFields& fields) {
+  const NodeFieldsView state = fields.state, raw = fields.before_conditions;
+  Kokkos::parallel_for(
+      "keep_momentum_and_force", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))), KOKKOS_LAMBDA(const index_t i) {
+        raw(i, GridFields::raw_momentum_x) = state(i, GridFields::momentum_x);
+        raw(i, GridFields::raw_momentum_y) = state(i, GridFields::momentum_y);
+        raw(i, GridFields::raw_force_x) = state(i, GridFields::force_x);
+        raw(i, GridFields::raw_force_y) = state(i, GridFields::force_y);
+      });
+}
+
+void keep_remap_before_conditions(const GridFields& fields) {
+  const NodeFieldsView remap = fields.momentum_remap, raw = fields.before_conditions;
+  Kokkos::parallel_for(
+      "keep_remap", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(remap.extent(0))), KOKKOS_LAMBDA(const index_t i) {
+        raw(i, GridFields::raw_remap_momentum_x) = remap(i, GridFields::remap_momentum_x);
+        raw(i, GridFields::raw_remap_momentum_y) = remap(i, GridFields::remap_momentum_y);
+      });
+}
+
+double boundary_work(const GridFields& fields, const IndexRange2D& owned, const GridGeometry& geometry, real_t dt,
+                     real_t mass_threshold) {
+  if (owned.empty()) return 0;
+  const NodeFieldsView state = fields.state, raw = fields.before_conditions, per_unit_mass = fields.per_unit_mass;
+  const GridGeometry geo = geometry;
+  const index_t width = owned.extent_x(), i0 = owned.begin_x, j0 = owned.begin_y;
+  double work = 0;
+  Kokkos::parallel_reduce(
+      "boundary_work", Kokkos::RangePolicy<ExecutionSpace>(0, owned.size()),
+      KOKKOS_LAMBDA(const index_t k, double& sum) {
+        const index_t node = geo.node_index(i0 + k % width, j0 + k / width);
+        const real_t inv_m = per_unit_node_mass(state(node, GridFields::mass), mass_threshold);
+        // The particles' kinetic energy change, per dt ...
+        const real_t mean_momentum_x = real_t(0.5) * (raw(node, GridFields::raw_momentum_x) + raw(node, GridFields::raw_remap_momentum_x));
+        const real_t mean_momentum_y = real_t(0.5) * (raw(node, GridFields::raw_momentum_y) + raw(node, GridFields::raw_remap_momentum_y));
+        const double kinetic = double(inv_m) * (state(node, GridFields::force_x) * mean_momentum_x +
+                                                state(node, GridFields::force_y) * mean_momentum_y);
+        // ... plus their internal energy change.
+        const double internal = -(raw(node, GridFields::raw_force_x) * per_unit_mass(node, GridFields::remap_velocity_x) +
+                                  raw(node, GridFields::raw_force_y) * per_unit_mass(node, GridFields::remap_velocity_y));
+        sum += kinetic + internal;
+      },
+      work);
+  return double(dt) * work;
 }
 
 }  // namespace mpmflow

@@ -13,7 +13,26 @@ void reset_grid(const GridFields& fields);
 // no more mass than `mass_threshold` count as empty: no velocity, no acceleration.
 void update_grid_momentum(const GridFields& fields, real_t dt, real_t mass_threshold);
 
-// The remapped momentum (step 8) per unit node mass, which step 10 differentiates.
-void compute_remap_velocity(const GridFields& fields, real_t mass_threshold);
+// The velocity step 10 differentiates: the remapped momentum (step 8) per unit node mass; with
+// `midpoint`, its mean with the velocity before the step's update, V-bar - dt A. The internal
+// energy the particles gain from that velocity's divergence is then exactly the kinetic energy
+// the step's grid forces take from them (FLIP's kinetic energy change is the forces' work on the
+// remapped mean of the particles' old and new velocities).
+void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, real_t dt, bool midpoint);
+
+// Copies the momentum and force columns of `state` (before step 4) or the remapped momentum
+// (before step 9) into `before_conditions`.
+void keep_momentum_and_force_before_conditions(const GridFields& fields);
+void keep_remap_before_conditions(const GridFields& fields);
+
+// The work the boundary conditions did on the particles over the step, with the energy-consistent
+// update, summed over the nodes in `owned`. The particles' kinetic energy changed by
+//   dt sum_i A_i . (mv_i + (mv)_remap,i) / 2,
+// A the acceleration after the conditions and the momenta as the particles gave them (FLIP's
+// change is the interpolated acceleration times the mean of the old and new velocities); their
+// internal energy by -dt sum_i f_i . v_mid,i, f the particles' own force and v_mid the velocity step
+// 10 differentiates. What the two do not cancel is the conditions' work.
+double boundary_work(const GridFields& fields, const IndexRange2D& owned, const GridGeometry& geometry, real_t dt,
+                     real_t mass_threshold);
 
 }  // namespace mpmflow

@@ -27,8 +27,10 @@ void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long 
     auto t = timers.scope(Phase::halo_exchange);
     slab.halo().sum_shared_nodes(grid.state, 0, GridFields::num_state_columns);
   }
+  const bool energy_budget = settings.thermodynamics.energy_consistent;
   {  // 4. boundary conditions on mv and f; obstacles (eqs. 21-22)
     auto t = timers.scope(Phase::boundary_conditions);
+    if (energy_budget) keep_momentum_and_force_before_conditions(grid);
     slab.grid_boundaries().apply_to_momentum_and_force(grid.state, &s.obstacle_forces);
   }
   {  // 5. (mv)' = mv + dt f; V-bar = (mv)' / m and A = f / m on the nodes
@@ -54,11 +56,18 @@ void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long 
   }
   {  // 9. boundary conditions on mv
     auto t = timers.scope(Phase::boundary_conditions);
+    if (energy_budget) keep_remap_before_conditions(grid);
     slab.grid_boundaries().apply_to_momentum(grid.momentum_remap, GridFields::remap_momentum_x, grid.state);
   }
   {  // ... and mv / m on the nodes, for step 10
     auto t = timers.scope(Phase::grid_remap_velocity);
-    compute_remap_velocity(grid, mass_threshold);
+    compute_remap_velocity(grid, mass_threshold, dt, settings.thermodynamics.energy_consistent);
+  }
+  double work_of_conditions = 0;
+  if (energy_budget) {
+    auto t = timers.scope(Phase::boundary_conditions);
+    work_of_conditions = boundary_work(grid, slab.slab().owned_nodes_with_outer_ghosts(), slab.geometry(), dt,
+                                       mass_threshold);
   }
   {  // 10. grad V = G2PD(mv / m); E', rho', P' (and Q) of the particles
     auto t = timers.scope(Phase::g2pd_particle_update);
@@ -66,7 +75,8 @@ void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long 
   }
   {  // 11. X' = X + dt V-bar; walls, open sides and obstacles
     auto t = timers.scope(Phase::particle_move);
-    move_particles(slab.particle_boundaries(), particles, dt, &s.obstacle_forces);
+    const double stopped = move_particles(slab.particle_boundaries(), particles, dt, &s.obstacle_forces);
+    s.open_sides.add_boundary_energy(work_of_conditions, stopped);
   }
   {  // particles that left through open sides removed (or recycled), the free stream's entered
     auto t = timers.scope(Phase::open_sides);

@@ -123,6 +123,11 @@ class OpenBoundaries {
 
   // This rank's fluxes since the start of the run (or of the restart; see restore).
   const BoundaryFluxes& fluxes() const { return fluxes_; }
+  // Adds a step's energy terms of the boundaries (BoundaryFluxes) on this rank.
+  void add_boundary_energy(double boundary_work, double kinetic_energy_stopped) {
+    fluxes_.boundary_work += boundary_work;
+    fluxes_.kinetic_energy_stopped += kinetic_energy_stopped;
+  }
   // How far the lattice outside each entering side has moved, per cell along it (the sides in
   // the order left, right, bottom, top): the same on every rank.
   const std::vector<double>& entry_distance() const { return entry_distance_; }

@@ -103,13 +103,17 @@ struct AccelerateThenCarryMomentum {
 struct UpdateThermodynamics {
   RealView density, specific_energy, pressure, viscosity, stretch_x, stretch_y;
   real_t dt, gamma, cell_size, c0, c1;
+  bool energy_consistent;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&gradient)[2][2]) const {
     const real_t div_v = gradient[0][0] + gradient[1][1];
     stretch_x(p) *= 1 + dt * gradient[0][0];
     stretch_y(p) *= 1 + dt * gradient[1][1];
     const real_t rho = density(p);
     const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure(p), rho), cell_size, div_v, c0, c1);
-    const real_t e_new = advanced_specific_energy(specific_energy(p), dt, pressure(p), q, rho, div_v);
+    // Energy-consistent: the viscous pressure that made this step's forces, so that the heat is
+    // exactly the kinetic energy the viscosity removed; the paper's update takes the new one.
+    const real_t q_of_work = energy_consistent ? viscosity(p) : q;
+    const real_t e_new = advanced_specific_energy(specific_energy(p), dt, pressure(p), q_of_work, rho, div_v);
     const real_t rho_new = advanced_density(rho, dt, div_v);
     specific_energy(p) = e_new;
     density(p) = rho_new;
@@ -245,7 +249,7 @@ class Transfers final : public TransferKernels {
          NodeColumns<2>{fields_.per_unit_mass, GridFields::remap_velocity_x},
          UpdateThermodynamics{pt.density, pt.specific_energy, pt.pressure, pt.artificial_viscosity,
                               pt.domain_stretch_x, pt.domain_stretch_y, dt, k.gamma, k.cell_size,
-                              k.viscosity_quadratic, k.viscosity_linear});
+                              k.viscosity_quadratic, k.viscosity_linear, k.energy_consistent});
   }
 
   void p2g_output_projection(const ParticleState& pt, const NodeFieldsView& target) override {

@@ -18,6 +18,10 @@ struct ThermodynamicConstants {
   real_t cell_size = 0;  // h of the artificial viscosity
   real_t viscosity_quadratic = 0;
   real_t viscosity_linear = 0;
+  // numerics/energy_consistent: the work of the step's forces heats the particles, with the (P + Q)
+  // the forces were made of (the step's velocity gradient is then that of the midpoint velocity,
+  // compute_remap_velocity); the new Q only enters the next step's forces.
+  bool energy_consistent = true;
 };
 
 // Bound to the grid fields of one slab (rebuilt with them).

@@ -20,6 +20,9 @@ for band in "0 0.6" "1.4 2"; do
 done
 # The mass in the domain is the initial mass plus what entered minus what left, to round-off.
 /usr/bin/python3 "$source_dir/tools/mpmflow_plot.py" mass-balance "$work_dir/output" --max-residual 1e-10 | tail -2
+# And the energy: its change is what entered minus what left, plus the work of the boundary
+# conditions, minus the kinetic energy stopped at walls and the body, to round-off.
+/usr/bin/python3 "$source_dir/tools/mpmflow_plot.py" energy-balance "$work_dir/output" --max-residual 1e-10 | tail -2
 # The drag coefficient on the diameter: modified Newtonian theory gives 1.17 for the forebody
 # (2/3 of the pitot pressure coefficient 1.755), the base adds about 0.1 (README). Seen at this
 # resolution: 1.155 to 1.159 with seeds 1 to 4 (1.246 at the default 200 x 100 cells).

@@ -31,8 +31,10 @@ run() {
 }
 
 # The coarse cylinder: 60 x 30 cells, 4 random particles per cell, t = 0.5 (about 90 steps; round-off
-# differences between rank counts grow from 1e-16 to about 1e-12 by then, and to 1e-8 by t = 1, as
-# they do between 1 and 2 threads on one rank), slabs rebalanced every 10 steps.
+# differences between rank counts grow from 1e-16 to about 1e-12 by t = 0.375 and 2e-10 by t = 0.5
+# (with the energy-consistent update, which damps less than the paper's: it grew to 1e-12 by
+# t = 0.5 with that), as they do between 1 and 2 threads on one rank), slabs rebalanced every 10
+# steps.
 cylinder=("$source_dir/cases/cylinder_mach3.json" --set domain/cells_x=60 --set domain/cells_y=30
           --set 'particles/per_cell=[2,2]' --set time/end=0.5 --set output/snapshots=4
           --set decomposition/balance_interval=10)
@@ -51,11 +53,11 @@ case $test_name in
     # The slabs must really have moved, or the test would not cover rebalancing.
     grep "load balance" "$work/np4.log" | head -3
     grep -q "load balance" "$work/np4.log" || { echo "FAILED: no rebalancing in the 4-rank run"; exit 1; }
-    for np in 2 4; do $compare "$work/np1" "$work/np$np" --all --tolerance 1e-10 | tail -2; done
+    for np in 2 4; do $compare "$work/np1" "$work/np$np" --all --tolerance 1e-9 | tail -2; done
     # Slabs along y instead (30 cells: 4 slabs of 7 or 8 rows).
     run 4 "$work/np4y" "${cylinder[@]}" --set decomposition/axis=y
     grep -q "slabs along y" "$work/np4y.log" || { echo "FAILED: not decomposed along y"; exit 1; }
-    $compare "$work/np1" "$work/np4y" --all --tolerance 1e-10 | tail -2
+    $compare "$work/np1" "$work/np4y" --all --tolerance 1e-9 | tail -2
     ;;
   restart)
     # Checkpoints every 25 steps; restarts from the one at step 50 (between outputs 2 and 3).

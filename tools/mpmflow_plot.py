@@ -35,6 +35,11 @@ python3-numpy (scripts/setup.sh installs them).
       From diagnostics.csv: the mass in the domain against the initial mass plus what entered
       minus what left through the open sides, at every output; with --max-residual, exits 1 when
       the residual relative to the initial mass exceeds F.
+  mpmflow_plot.py energy-balance OUTPUT_DIR [--max-residual F]
+      From diagnostics.csv: the total energy's change against what entered and left through the
+      open sides, the work of the boundary conditions and the kinetic energy particles lost to
+      walls and obstacles, at every output (relative to the initial total energy); with
+      --max-residual, exits 1 when what is left exceeds F.
 
 The tools read the snapshots the run's XDMF time series lists (not stale files of an earlier run
 in the same folder). Particle fields are binned onto the cells of the output grid, mass-weighted;
@@ -520,6 +525,41 @@ def mass_balance(args):
     return 0
 
 
+def energy_budget(row, first):
+    """The energy balance of one diagnostics.csv row against the first, term by term, relative to
+    the initial total energy: change = in - out + boundary work - kinetic energy stopped, and what
+    is left of the change once those are taken off (round-off with numerics/energy_consistent)."""
+    e0 = float(first["total_energy"])
+    term = {
+        "change": float(row["total_energy"]) - e0,
+        "in": float(row["kinetic_energy_in"]) + float(row["internal_energy_in"]),
+        "out": float(row["kinetic_energy_out"]) + float(row["internal_energy_out"]),
+        "boundary_work": float(row["energy_boundary_work"]),
+        "stopped": float(row["kinetic_energy_stopped"]),
+    }
+    term["residual"] = term["change"] - term["in"] + term["out"] - term["boundary_work"] + term["stopped"]
+    return {name: value / e0 for name, value in term.items()}
+
+
+def energy_balance(args):
+    path, rows = read_diagnostics(args.output_dir)
+    if not rows or "energy_boundary_work" not in rows[0]:
+        sys.exit(f"mpmflow_plot: error: {path}: expected rows with the columns total_energy, "
+                 "energy_boundary_work and kinetic_energy_stopped")
+    worst = 0.0
+    for row in rows:
+        b = energy_budget(row, rows[0])
+        worst = max(worst, abs(b["residual"]))
+        print(f"t = {float(row['time']):8.4f}: change {b['change']:+.4e}, in {b['in']:.4e}, out {b['out']:.4e}, "
+              f"boundary work {b['boundary_work']:+.4e}, stopped {b['stopped']:.4e}, residual {b['residual']:.2e}")
+    print("largest residual (change - in + out - boundary work + stopped) / total energy(0): "
+          f"{worst:.2e}")
+    if args.max_residual is not None and not worst <= args.max_residual:
+        print(f"FAIL: energy balance residual {worst:.2e} > {args.max_residual:.2e}")
+        return 1
+    return 0
+
+
 def read_diagnostics(output_dir):
     import csv
     path = os.path.join(output_dir, "diagnostics.csv")
@@ -610,6 +650,9 @@ def main():
     balance = sub.add_parser("mass-balance", help="the mass balance with the open sides, from diagnostics.csv")
     balance.add_argument("output_dir")
     balance.add_argument("--max-residual", type=float)
+    energy = sub.add_parser("energy-balance", help="the energy budget term by term, from diagnostics.csv")
+    energy.add_argument("output_dir")
+    energy.add_argument("--max-residual", type=float)
     coefficients = sub.add_parser("forces", help="drag and lift coefficient histories of an obstacle (diagnostics.csv)")
     coefficients.add_argument("output_dir")
     coefficients.add_argument("--obstacle", type=int, default=0, help="obstacle index in the case (0)")
@@ -630,6 +673,8 @@ def main():
         sys.exit(region(args))
     elif args.command == "mass-balance":
         sys.exit(mass_balance(args))
+    elif args.command == "energy-balance":
+        sys.exit(energy_balance(args))
     else:
         sys.exit(bow_shock(args))
 
