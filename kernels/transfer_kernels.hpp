@@ -129,6 +129,49 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
   }
 }
 
+// Runs body(p) for every particle p, without a stencil: all particles at once, or (ColouredCells)
+// one thread per cell walking its particles in order, so that a body writing to its particle's
+// cell writes exclusively and in a fixed order (no colours needed: a particle touches one cell).
+template <class Body>
+void for_each_particle(const char* label, index_t num_particles, const Body& body) {
+  Kokkos::parallel_for(label, Kokkos::RangePolicy<ExecutionSpace>(0, num_particles), body);
+}
+template <class Body>
+void for_each_particle(const char* label, const ColouredCells& cells, const Body& body) {
+  const IndexView offset = cells.cell_offset, order = cells.particle;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, cells.cells_x * cells.cells_y), KOKKOS_LAMBDA(const index_t c) {
+        for (index_t s = offset(c); s < offset(c + 1); ++s) body(order(s));
+      });
+}
+
+// P2C body: cell(c, first + k) += F_k(p) for the cell c holding particle p.
+template <class Access, class ParticleFunctor>
+struct P2CBody {
+  static constexpr int N = ParticleFunctor::num_components;
+  Access scatter;
+  IndexView cell;
+  int first_component;
+  ParticleFunctor functor;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t p) const {
+    real_t value[N];
+    functor(p, value);
+    auto access = scatter.access();
+    for (int c = 0; c < N; ++c) access(cell(p), first_component + c) += value[c];
+  }
+};
+
+// P2C: per-cell sums over the particles of each cell, cell(c, first + k) += sum_{p in c} F_k(p),
+// into a (cell, component) View through the same accumulators as P2G (a ScatterView over the
+// cells, or DirectNodeAccess with the cell-grouped traversal). The particle functor follows the
+// P2G contract.
+template <class ScatterViewType, class ParticleFunctor, class Traversal>
+void p2c(const char* label, const IndexView& particle_cell, const Traversal& traversal, ScatterViewType& scatter,
+         int first_component, const ParticleFunctor& functor) {
+  for_each_particle(label, traversal,
+                    P2CBody<ScatterViewType, ParticleFunctor>{scatter, particle_cell, first_component, functor});
+}
+
 // The kernels below walk a stencil row by row (b along y, a along x) and use its tensor-product
 // form: phi(a, b) = wx[a] wy[b], so the y factor multiplies a whole row once.
 
@@ -361,10 +404,11 @@ void g2p_then_p2g(const char* label, const Shape& shape, const ParticleLocations
 }
 
 // G2PD (eq. 19): gradient_c(p) = sum_i F_c(node i) grad phi_i(X_p), handed to sink(p, gradient).
-template <class Shape, class NodeFunctor, class ParticleSink>
-void g2pd(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,
+// The traversal is a particle count, or ColouredCells where the sink writes to its particle's cell.
+template <class Shape, class NodeFunctor, class ParticleSink, class Traversal>
+void g2pd(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& traversal,
           const NodeFunctor& node_functor, const ParticleSink& sink) {
-  for_each_particle_stencil(label, shape, particles, num_particles,
+  for_each_particle_stencil(label, shape, particles, traversal,
                             G2PDBody<NodeFunctor, ParticleSink>{node_functor, sink});
 }
 

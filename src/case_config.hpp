@@ -153,6 +153,14 @@ struct NumericsConfig {
   // the forces were made of, so that kinetic + internal energy is conserved to round-off in a
   // closed box. false: the paper's update, p dV with the remapped end-of-step velocity and the new Q.
   bool energy_consistent = true;
+  // The particles of a cell share one volume change and one stress per step: the volume-weighted
+  // cell averages of the velocity divergence and of P + Q (cell-averaged volumetric strain, as
+  // "F-bar" methods use against volumetric locking). Irregularly placed particles then cannot
+  // compress one another within a cell, which is most of the noise of a free stream.
+  bool cell_averaged_strain = false;
+  // A particle whose domain has grown wider than a cell splits in two (particle_splitting.hpp),
+  // so that no gap opens in the gas where it expands strongly.
+  bool split_particles = true;
 };
 
 struct CaseConfig {

@@ -72,6 +72,7 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
       h5::write_attribute(file, (std::string("initial_") + name).c_str(), value);
     });
     h5::write_attribute(file, "node_mass_threshold", solver.node_mass_threshold());
+    h5::write_attribute(file, "particle_splits", static_cast<double>(clock.particle_splits));
     {
       std::vector<double> fluxes;
       clock.fluxes.for_each_flux([&](const std::string&, double value) { fluxes.push_back(value); });
@@ -175,6 +176,9 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
       value = h5::read_attribute(file, (std::string("initial_") + name).c_str());
     });
     clock.node_mass_threshold = h5::read_attribute(file, "node_mass_threshold");
+    // (Absent from checkpoints written before particles split: none had split.)
+    if (H5Aexists(file, "particle_splits") > 0)
+      clock.particle_splits = static_cast<long long>(h5::read_attribute(file, "particle_splits"));
     const int written_ranks = static_cast<int>(h5::read_attribute(file, "num_ranks"));
     {
       // Rank-major rows of every flux (BoundaryFluxes::for_each_flux order).

@@ -24,6 +24,7 @@ struct RunClock {
   int next_snapshot = 0;            // index of the next snapshot to write
   ConservationTotals initial_totals;  // of t = 0, for the drift reports
   double node_mass_threshold = 0;     // the solver's, fixed at t = 0 (restored for a bitwise restart)
+  long long particle_splits = 0;      // over all ranks since t = 0: they number the split particles' ids
   std::vector<double> entry_distance;  // how far the free stream outside the open sides has moved
   // The obstacles' impulse since the last output: {time, x0, y0, x1, ...}, the same on every rank.
   std::vector<double> obstacle_impulse;

@@ -82,6 +82,10 @@ void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long 
     auto t = timers.scope(Phase::open_sides);
     s.open_sides.exchange(s.particles, slab, dt, step);
   }
+  if (s.splitting.enabled()) {  // particles whose domain has grown wider than a cell split in two
+    auto t = timers.scope(Phase::splitting);
+    s.splitting.split(s.particles, slab.particle_boundaries(), slab.context());
+  }
   {  // particles that left the slab go to the ranks owning their cells
     auto t = timers.scope(Phase::migration);
     s.migration.migrate(s.particles, slab.slab(), slab.decomposition(), slab.context());

@@ -3,6 +3,7 @@
 // time step size of step 13 and rebalances the slabs between steps).
 #include "open_boundaries.hpp"
 #include "particle_migration.hpp"
+#include "particle_splitting.hpp"
 #include "particles.hpp"
 #include "phase_timers.hpp"
 #include "slab_state.hpp"
@@ -17,6 +18,7 @@ struct StepState {
   TransferKernels& transfers;
   ParticleMigration& migration;
   OpenBoundaries& open_sides;
+  ParticleSplitting& splitting;
   PhaseTimers& timers;
   ObstacleForces& obstacle_forces;  // of the step, on this slab's nodes
 };

@@ -74,6 +74,25 @@ std::vector<long long> ParallelContext::all_gather(long long value) const {
   return values;
 }
 
+std::vector<long long> ParallelContext::all_gather(const std::vector<long long>& values) const {
+  if (!distributed()) return values;
+  std::vector<long long> result;
+#ifdef MPMFLOW_HAVE_MPI
+  const std::vector<long long> counts = all_gather(static_cast<long long>(values.size()));
+  std::vector<int> sizes(size_), offsets(size_);
+  long long total = 0;
+  for (int r = 0; r < size_; ++r) {
+    sizes[r] = static_cast<int>(counts[r]);
+    offsets[r] = static_cast<int>(total);
+    total += counts[r];
+  }
+  result.resize(static_cast<size_t>(total));
+  MPI_Allgatherv(values.data(), static_cast<int>(values.size()), MPI_LONG_LONG, result.data(), sizes.data(),
+                 offsets.data(), MPI_LONG_LONG, comm_);
+#endif
+  return result;
+}
+
 void ParallelContext::broadcast(std::string& text, int root) const {
 #ifdef MPMFLOW_HAVE_MPI
   if (!distributed()) return;

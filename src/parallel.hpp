@@ -46,6 +46,8 @@ class ParallelContext {
   // Sum of `value` over the ranks below this one.
   long long exclusive_prefix_sum(long long value) const;
   std::vector<long long> all_gather(long long value) const;
+  // Every rank's `values`, concatenated in rank order, on every rank.
+  std::vector<long long> all_gather(const std::vector<long long>& values) const;
   // `text` of rank `root` on every rank.
   void broadcast(std::string& text, int root = 0) const;
   void broadcast(double* values, int count, int root = 0) const;

@@ -25,6 +25,7 @@ enum class Phase : int {
   g2pd_particle_update,       // 10.
   particle_move,              // 11.
   open_sides,                 // particles removed or recycled at open sides, the free stream's entered
+  splitting,                  // particles wider than a cell split in two
   migration,                  // particles to the ranks owning their cells
   cell_map,                   // each particle's cell
   reorder,                    // 12.
@@ -38,8 +39,8 @@ constexpr std::array<const char*, static_cast<size_t>(Phase::count)> phase_names
     "time_step",           "grid_reset",           "p2g_mass_momentum_force",   "halo_exchange",
     "boundary_conditions", "grid_momentum_update", "g2p_p2g_velocity_momentum", "g2p_velocity_acceleration",
     "p2g_momentum_remap",  "grid_remap_velocity",  "g2pd_particle_update",      "particle_move",
-    "open_sides",          "migration",            "cell_map",                  "reorder",
-    "load_balance",        "output",               "checkpoint"};
+    "open_sides",          "splitting",            "migration",                 "cell_map",
+    "reorder",             "load_balance",         "output",                    "checkpoint"};
 
 constexpr const char* phase_name(Phase phase) { return phase_names[static_cast<size_t>(phase)]; }
 

@@ -260,6 +260,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     solver.set_node_mass_threshold(static_cast<real_t>(restart.clock.node_mass_threshold));
     solver.open_sides().restore(restart.clock.entry_distance, restart.clock.fluxes);
     solver.restore_obstacle_impulse(restart.clock.obstacle_impulse);
+    solver.splitting().restore(restart.clock.particle_splits);
   }
   const bool open_sides = config.boundaries.any_open();
   DiagnosticsCalculator diagnostics(solver.particles().count);
@@ -362,6 +363,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     clock.entry_distance = solver.open_sides().entry_distance();
     clock.obstacle_impulse = solver.obstacle_impulse();
     clock.fluxes = solver.open_sides().fluxes();
+    clock.particle_splits = solver.splitting().splits();
     const std::string path =
         write_checkpoint(config.output.directory, config.name, solver, clock, config.output.checkpoints_kept);
     last_checkpoint_step = solver.step_count();

@@ -93,6 +93,10 @@ class Solver {
   // The P2G accumulation in use, after resolving "automatic" for this execution space.
   P2GStrategy p2g_strategy() const { return transfers_->strategy(); }
 
+  // Particle splitting: the splits so far (checkpoints carry them: they number the new ids).
+  const ParticleSplitting& splitting() const { return splitting_; }
+  ParticleSplitting& splitting() { return splitting_; }
+
   // The open sides: what entered and left through them, and the state of the free stream outside.
   const OpenBoundaries& open_sides() const { return open_sides_; }
   OpenBoundaries& open_sides() { return open_sides_; }
@@ -130,6 +134,7 @@ class Solver {
   std::unique_ptr<TransferKernels> transfers_;
   ParticleMigration migration_;
   OpenBoundaries open_sides_;
+  ParticleSplitting splitting_;
   PhaseTimers timers_;
   StepSettings settings_;
   std::vector<BalanceReport> balance_reports_;

@@ -61,6 +61,42 @@ struct InternalForce {
   }
 };
 
+// ---- Cell averages (numerics/cell_averaged_strain) ----------------------------------------------
+
+// The columns of the per-cell sums: particle volume, (P + Q) x volume, velocity divergence x volume.
+enum CellSumColumn : int { cell_volume = 0, cell_stress_volume, cell_divergence_volume, num_cell_sum_columns };
+
+// P2C(V), P2C((P + Q) V): the volume-weighted mean stress of each cell, before the force P2GD.
+struct VolumeAndStress {
+  static constexpr int num_components = 2;
+  RealView mass, density, pressure, viscosity;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[2]) const {
+    const real_t volume = mass(p) / density(p);
+    value[0] = volume;
+    value[1] = (pressure(p) + viscosity(p)) * volume;
+  }
+};
+
+// The mean of column `column` over the volume of cell c.
+KOKKOS_INLINE_FUNCTION real_t cell_mean(const NodeFieldsView& sums, index_t c, int column) {
+  return sums(c, column) / sums(c, cell_volume);
+}
+
+// The internal force with the cell's mean P + Q: f_i = sum_p (P + Q)_cell (M / rho) grad phi_i.
+struct CellAveragedInternalForce {
+  static constexpr int num_components = 2;
+  RealView mass, density;
+  IndexView cell;
+  NodeFieldsView cell_sums;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&vector)[2][2]) const {
+    const real_t stress_times_volume = cell_mean(cell_sums, cell(p), cell_stress_volume) * mass(p) / density(p);
+    vector[0][0] = stress_times_volume;
+    vector[0][1] = 0;
+    vector[1][0] = 0;
+    vector[1][1] = stress_times_volume;
+  }
+};
+
 // The G2P node functor: N adjacent columns of a View, read as they are (the paper's theta,
 // the division by the node mass, is done once per node on the grid: grid_phases.hpp).
 template <int N>
@@ -122,6 +158,47 @@ struct UpdateThermodynamics {
   }
 };
 
+// Step 10 with cell-averaged strain, first pass: the domain's stretches from the particle's own
+// gradient, and its divergence x volume into its cell.
+template <class Access>
+struct StretchAndCellDivergence {
+  RealView stretch_x, stretch_y, mass, density;
+  IndexView cell;
+  Access cell_sums;
+  real_t dt;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&gradient)[2][2]) const {
+    stretch_x(p) *= 1 + dt * gradient[0][0];
+    stretch_y(p) *= 1 + dt * gradient[1][1];
+    auto access = cell_sums.access();
+    access(cell(p), cell_divergence_volume) += (gradient[0][0] + gradient[1][1]) * mass(p) / density(p);
+  }
+};
+
+// Second pass: density, energy, pressure and viscosity from the cell's mean divergence; the
+// energy-consistent work with the cell's mean P + Q that made the force.
+struct UpdateThermodynamicsFromCellMeans {
+  RealView density, specific_energy, pressure, viscosity;
+  IndexView cell;
+  NodeFieldsView cell_sums;
+  real_t dt, gamma, cell_size, c0, c1;
+  bool energy_consistent;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p) const {
+    const index_t c = cell(p);
+    const real_t div_v = cell_mean(cell_sums, c, cell_divergence_volume);
+    const real_t rho = density(p);
+    const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure(p), rho), cell_size, div_v, c0, c1);
+    // The cell's mean (P + Q) x V, shared out by volume, is what this particle's share of the force
+    // was made of; the paper's update takes the particle's own pressure and the new viscosity.
+    const real_t work_pressure = energy_consistent ? cell_mean(cell_sums, c, cell_stress_volume) : pressure(p) + q;
+    const real_t e_new = advanced_specific_energy(specific_energy(p), dt, work_pressure, real_t(0), rho, div_v);
+    const real_t rho_new = advanced_density(rho, dt, div_v);
+    specific_energy(p) = e_new;
+    density(p) = rho_new;
+    pressure(p) = perfect_gas_pressure(gamma, rho_new, e_new);
+    viscosity(p) = q;
+  }
+};
+
 // ---- Shapes ---------------------------------------------------------------------------------
 
 // The shape policy with the particle Views of now (migration may have reallocated them).
@@ -156,11 +233,13 @@ class ScatterAccumulation {
   static constexpr bool duplicated = std::is_same<Duplication, Kokkos::Experimental::ScatterDuplicated>::value;
   using Access = NodeScatterView<Duplication>;
 
-  explicit ScatterAccumulation(const GridFields& fields) : state_(fields.state), remap_(fields.momentum_remap) {}
+  ScatterAccumulation(const GridFields& fields, const NodeFieldsView& cell_sums)
+      : state_(fields.state), remap_(fields.momentum_remap), cells_(cell_sums) {}
   void prepare(const ParticleState&, const GridGeometry&) {}
   index_t traversal(const ParticleState& particles) const { return particles.count; }
   Access& state() { return state_; }
   Access& remap() { return remap_; }
+  Access& cells() { return cells_; }
   // An accumulator into another View (the output projection), made for the occasion.
   Access into(const NodeFieldsView& target) const { return Access(target); }
   P2GStrategy strategy() const { return duplicated ? P2GStrategy::duplicated : P2GStrategy::atomic; }
@@ -168,13 +247,14 @@ class ScatterAccumulation {
   size_t extra_bytes() const {
     if (!duplicated) return 0;
     const size_t copies = static_cast<size_t>(ExecutionSpace().concurrency());
-    return copies * sizeof(real_t) * (state_.subview().span() + remap_.subview().span());
+    return copies * sizeof(real_t) * (state_.subview().span() + remap_.subview().span() + cells_.subview().span());
   }
 
  private:
   // Kept alive across steps: creating a duplicated ScatterView allocates a copy per thread.
   Access state_;
   Access remap_;
+  Access cells_;  // the per-cell sums of cell-averaged strain
 };
 
 // Sorted and coloured: the particles grouped by cell (CellOrder, rebuilt every step since the
@@ -184,7 +264,8 @@ class ColouredAccumulation {
  public:
   using Access = DirectNodeAccess;
 
-  explicit ColouredAccumulation(const GridFields& fields) : state_{fields.state}, remap_{fields.momentum_remap} {}
+  ColouredAccumulation(const GridFields& fields, const NodeFieldsView& cell_sums)
+      : state_{fields.state}, remap_{fields.momentum_remap}, cell_sums_{cell_sums} {}
   void prepare(const ParticleState& particles, const GridGeometry& grid) {
     order_.build(particles.cell, particles.count, grid.num_cells());
     cells_ = {order_.cell_offset(), order_.particle(), grid.cells_x(), grid.cells_y()};
@@ -192,12 +273,13 @@ class ColouredAccumulation {
   const ColouredCells& traversal(const ParticleState&) const { return cells_; }
   Access& state() { return state_; }
   Access& remap() { return remap_; }
+  Access& cells() { return cell_sums_; }
   Access into(const NodeFieldsView& target) const { return Access{target}; }
   P2GStrategy strategy() const { return P2GStrategy::sorted; }
   size_t extra_bytes() const { return order_.bytes(); }
 
  private:
-  Access state_, remap_;
+  Access state_, remap_, cell_sums_;
   CellOrder order_;
   ColouredCells cells_;
 };
@@ -210,16 +292,31 @@ class Transfers final : public TransferKernels {
   Transfers(const CaseConfig& config, const GridGeometry& geometry, const GridFields& fields)
       : geometry_(geometry),
         fields_(fields),
-        accumulation_(fields),
+        cell_averaged_strain_(config.numerics.cell_averaged_strain),
+        cell_sums_("cell_sums", cell_averaged_strain_ ? geometry.num_cells() : 0, num_cell_sum_columns),
+        accumulation_(fields, cell_sums_),
         shape_(make_shape<Shape>(config, geometry)) {}
 
   void p2g_mass_momentum_force(const ParticleState& pt) override {
     accumulation_.prepare(pt, geometry_);
+    if (cell_averaged_strain_) {  // each cell's volume and (P + Q) x volume, for its mean stress
+      Kokkos::deep_copy(cell_sums_, real_t(0));
+      p2g_begin(accumulation_.cells(), cell_sums_);
+      p2c("p2c_volume_stress", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_volume,
+          VolumeAndStress{pt.mass, pt.density, pt.pressure, pt.artificial_viscosity});
+      p2g_end(accumulation_.cells(), cell_sums_);
+    }
     p2g_begin(accumulation_.state(), fields_.state);
     // Fused: the paper's P2G(M), P2G(M V) and P2GD((P + Q) M / rho) in one pass over the particles.
-    p2g_and_p2gd("p2g_mass_momentum_force", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
-                 accumulation_.state(), GridFields::mass, MassAndMomentum{pt.mass, pt.velocity_x, pt.velocity_y},
-                 GridFields::force_x, InternalForce{pt.pressure, pt.artificial_viscosity, pt.mass, pt.density});
+    const MassAndMomentum mass_and_momentum{pt.mass, pt.velocity_x, pt.velocity_y};
+    if (cell_averaged_strain_)
+      p2g_and_p2gd("p2g_mass_momentum_force", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
+                   accumulation_.state(), GridFields::mass, mass_and_momentum, GridFields::force_x,
+                   CellAveragedInternalForce{pt.mass, pt.density, pt.cell, cell_sums_});
+    else
+      p2g_and_p2gd("p2g_mass_momentum_force", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
+                   accumulation_.state(), GridFields::mass, mass_and_momentum, GridFields::force_x,
+                   InternalForce{pt.pressure, pt.artificial_viscosity, pt.mass, pt.density});
     p2g_end(accumulation_.state(), fields_.state);
   }
 
@@ -245,6 +342,25 @@ class Transfers final : public TransferKernels {
   }
 
   void g2pd_particle_update(const ParticleState& pt, const ThermodynamicConstants& k, real_t dt) override {
+    if (cell_averaged_strain_) {
+      // The divergence x volume of each cell (its volume and mean stress are the force's, step 3:
+      // the particles have not moved since) ...
+      Kokkos::deep_copy(Kokkos::subview(cell_sums_, Kokkos::ALL, int(cell_divergence_volume)), real_t(0));
+      using Access = std::decay_t<decltype(accumulation_.cells())>;
+      p2g_begin(accumulation_.cells(), cell_sums_);
+      g2pd("g2pd_cell_divergence", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
+           NodeColumns<2>{fields_.per_unit_mass, GridFields::remap_velocity_x},
+           StretchAndCellDivergence<Access>{pt.domain_stretch_x, pt.domain_stretch_y, pt.mass, pt.density, pt.cell,
+                                            accumulation_.cells(), dt});
+      p2g_end(accumulation_.cells(), cell_sums_);
+      // ... then every particle's state from its cell's means.
+      for_each_particle("particle_update_cell_means", pt.count,
+                        UpdateThermodynamicsFromCellMeans{pt.density, pt.specific_energy, pt.pressure,
+                                                          pt.artificial_viscosity, pt.cell, cell_sums_, dt, k.gamma,
+                                                          k.cell_size, k.viscosity_quadratic, k.viscosity_linear,
+                                                          k.energy_consistent});
+      return;
+    }
     g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), pt.count,
          NodeColumns<2>{fields_.per_unit_mass, GridFields::remap_velocity_x},
          UpdateThermodynamics{pt.density, pt.specific_energy, pt.pressure, pt.artificial_viscosity,
@@ -273,6 +389,8 @@ class Transfers final : public TransferKernels {
 
   GridGeometry geometry_;
   GridFields fields_;
+  bool cell_averaged_strain_;
+  NodeFieldsView cell_sums_;  // (cell, CellSumColumn) with cell-averaged strain
   Accumulation accumulation_;
   Shape shape_;
 };

@@ -30,6 +30,7 @@ class TransferKernels {
   virtual ~TransferKernels() = default;
 
   // 3. m = P2G(M), mv = P2G(M V), f = P2GD((P + Q) M / rho) into the state columns (zeroed).
+  // With numerics/cell_averaged_strain, P + Q is its volume-weighted mean over the particle's cell.
   virtual void p2g_mass_momentum_force(const ParticleState& particles) = 0;
   // 6.-8. in one pass: V-bar = G2P(mv' / m), V' = V + dt G2P(f / m) from the per-unit-mass
   // columns, then mv = P2G(M V') into the remap columns (zeroed).
@@ -39,7 +40,9 @@ class TransferKernels {
   // 8. alone: mv = P2G(M V') into the remap columns (zeroed).
   virtual void p2g_momentum_remap(const ParticleState& particles) = 0;
   // 10. grad V = G2PD(mv / m) from the remapped velocity columns; density, energy, pressure,
-  // artificial viscosity and (GIMP) the particle domain's stretches.
+  // artificial viscosity and (GIMP) the particle domain's stretches. With
+  // numerics/cell_averaged_strain, the volume-weighted mean divergence of the particle's cell
+  // changes its density and energy, and that cell's mean P + Q of the force does the work.
   virtual void g2pd_particle_update(const ParticleState& particles, const ThermodynamicConstants& constants,
                                     real_t dt) = 0;
   // m = P2G(M), mv = P2G(M V), and P2G(M rho), P2G(M P), P2G(M E) into `target`

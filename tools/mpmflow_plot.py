@@ -35,6 +35,11 @@ python3-numpy (scripts/setup.sh installs them).
       From diagnostics.csv: the mass in the domain against the initial mass plus what entered
       minus what left through the open sides, at every output; with --max-residual, exits 1 when
       the residual relative to the initial mass exceeds F.
+  mpmflow_plot.py riemann-error OUTPUT_DIR [--x A B] [--max-l1 F] [--max-gap CELLS]
+      A 1D Riemann problem run (background: the right state, first region: the left state; from
+      the snapshots' effective case) against its exact solution: the density L1 error with particle-free
+      gaps counted as vacuum, and the widest gap between neighbouring particles, in cells.
+
   mpmflow_plot.py energy-balance OUTPUT_DIR [--max-residual F]
       From diagnostics.csv: the total energy's change against what entered and left through the
       open sides, the work of the boundary conditions and the kinetic energy particles lost to
@@ -107,6 +112,7 @@ class Snapshot:
                     k += 1
             effective = f.attrs.get("effective_case")
             case = json.loads(effective.decode() if isinstance(effective, bytes) else effective) if effective else {}
+        self.effective_case = case
         self.gamma = float(case.get("physics", {}).get("gamma", 1.4))
         self.free_stream = case.get("free_stream")
         self.obstacle_is_circle = [o.get("type") == "circle" for o in case.get("obstacles", [])]
@@ -345,6 +351,31 @@ def find_mpmflow(explicit):
     sys.exit("mpmflow_plot: error: no mpmflow binary found under build/*/bin; pass --mpmflow BIN")
 
 
+def exact_riemann_of_case(case, case_path, time, mpmflow):
+    """The exact solution of a 1D case's Riemann problem (background: the right state, the first
+    region: the left state) at `time`, sampled by `mpmflow riemann`: rows x, density, velocity,
+    pressure. `case` is the case's JSON (from `case_path`, named in messages)."""
+    try:
+        right = case["initial_state"]["background"]
+        left_region = case["initial_state"]["regions"][0]
+    except (KeyError, IndexError):
+        sys.exit(f"mpmflow_plot: error: {case_path}: /initial_state: expected a background (the right state) "
+                 "and one region (the left state)")
+    x0 = left_region["x"][1]
+    gamma = case.get("physics", {}).get("gamma", 1.4)
+    x_lo, x_hi = case["domain"]["x"]
+
+    def state(d):
+        return f"{d['density']},{d.get('velocity', [0, 0])[0]},{d['pressure']}"
+
+    command = [find_mpmflow(mpmflow), "riemann", "--left", state(left_region), "--right", state(right),
+               "--x0", str(x0), "--time", str(time), "--gamma", str(gamma), "--x", f"{x_lo},{x_hi}",
+               "--points", "20001"]
+    text = subprocess.run(command, check=True, capture_output=True, text=True).stdout
+    lines = text[text.index("x,density"):].strip().splitlines()
+    return np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+
+
 def plot_sod(args):
     import matplotlib
     matplotlib.use("Agg")
@@ -352,25 +383,8 @@ def plot_sod(args):
 
     with open(args.case) as f:
         case = json.load(f)
-    try:
-        right = case["initial_state"]["background"]
-        left_region = case["initial_state"]["regions"][0]
-    except (KeyError, IndexError):
-        sys.exit(f"mpmflow_plot: error: {args.case}: /initial_state: expected a background (the right state) "
-                 "and one region (the left state)")
-    x0 = left_region["x"][1]
-    gamma = case.get("physics", {}).get("gamma", 1.4)
     s = Snapshot(snapshot_files(args.output_dir)[-1])
-    x_lo, x_hi = case["domain"]["x"]
-
-    def state(d):
-        return f"{d['density']},{d.get('velocity', [0, 0])[0]},{d['pressure']}"
-
-    command = [find_mpmflow(args.mpmflow), "riemann", "--left", state(left_region), "--right", state(right),
-               "--x0", str(x0), "--time", str(s.time), "--gamma", str(gamma), "--x", f"{x_lo},{x_hi}"]
-    text = subprocess.run(command, check=True, capture_output=True, text=True).stdout
-    lines = text[text.index("x,density"):].strip().splitlines()
-    exact = np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+    exact = exact_riemann_of_case(case, args.case, s.time, args.mpmflow)
 
     nodes_x = s.grid["mass"].shape[1]
     grid_x = s.origin[0] + s.spacing[0] * np.arange(nodes_x)
@@ -525,6 +539,54 @@ def mass_balance(args):
     return 0
 
 
+def riemann_error(args):
+    """Density L1 error of a 1D run against the exact Riemann solution, with particle-free gaps
+    counted as vacuum: each particle stands for the interval of its volume (M / rho over the
+    domain's height and the particles per cell across) around it; x covered by no interval has
+    density 0, x covered by several their mean. Also the widest particle-free gap, in cells."""
+    path = snapshot_files(args.output_dir)[-1]
+    s = Snapshot(path)
+    case = s.effective_case  # the case as it ran (--set included)
+    exact = exact_riemann_of_case(case, path, s.time, args.mpmflow)
+    domain = case["domain"]
+    height = domain["y"][1] - domain["y"][0]
+    per_cell = case.get("particles", {}).get("per_cell", [2, 2])
+    across = per_cell[1] * domain.get("cells_y", 1)  # particles in a column across the domain
+    h = (domain["x"][1] - domain["x"][0]) / domain["cells_x"]
+    p = s.particles
+    x, rho = s.x, p["density"]
+    length = p["mass"] / rho / (height / across)
+    samples = exact[:, 0]
+    total = np.zeros_like(samples)
+    count = np.zeros_like(samples)
+    lo = np.searchsorted(samples, x - length / 2)
+    hi = np.searchsorted(samples, x + length / 2)
+    # Each particle's interval adds its density to the samples it covers (a difference array).
+    np.add.at(total, lo, rho)
+    np.add.at(total, np.minimum(hi, len(samples) - 1), -rho * (hi < len(samples)))
+    np.add.at(count, lo, 1)
+    np.add.at(count, np.minimum(hi, len(samples) - 1), -1.0 * (hi < len(samples)))
+    total, count = np.cumsum(total), np.cumsum(count)
+    numerical = np.where(count > 0.5, total / np.maximum(count, 1), 0.0)
+    dx = samples[1] - samples[0]
+    within = (samples >= args.x[0]) & (samples <= args.x[1]) if args.x else np.ones_like(samples, dtype=bool)
+    l1 = float(np.sum(np.abs(numerical - exact[:, 1])[within]) * dx)
+    order = np.sort(x[(x >= args.x[0]) & (x <= args.x[1])] if args.x else x)
+    count = count[within]
+    gap = float(np.max(np.diff(order))) / h if len(order) > 1 else 0.0
+    vacuum = float(np.sum(count < 0.5) * dx) / h
+    print(f"{s.case} t = {s.time:g}, {domain['cells_x']} cells: density L1 (gaps as vacuum) {l1:.5f}; "
+          f"widest gap between particles {gap:.2f} cells; x covered by no particle {vacuum:.2f} cells")
+    failed = False
+    if args.max_l1 is not None and not l1 <= args.max_l1:
+        print(f"FAIL: density L1 {l1:.5f} > {args.max_l1}")
+        failed = True
+    if args.max_gap is not None and not gap <= args.max_gap:
+        print(f"FAIL: a gap of {gap:.2f} cells > {args.max_gap}")
+        failed = True
+    return 1 if failed else 0
+
+
 def energy_budget(row, first):
     """The energy balance of one diagnostics.csv row against the first, term by term, relative to
     the initial total energy: change = in - out + boundary work - kinetic energy stopped, and what
@@ -650,6 +712,12 @@ def main():
     balance = sub.add_parser("mass-balance", help="the mass balance with the open sides, from diagnostics.csv")
     balance.add_argument("output_dir")
     balance.add_argument("--max-residual", type=float)
+    riemann = sub.add_parser("riemann-error", help="density L1 (gaps as vacuum) and gaps of a 1D Riemann problem run")
+    riemann.add_argument("output_dir")
+    riemann.add_argument("--mpmflow", help="the mpmflow binary (default: next to the build, or on PATH)")
+    riemann.add_argument("--max-l1", type=float)
+    riemann.add_argument("--max-gap", type=float, help="widest gap between neighbouring particles, in cells")
+    riemann.add_argument("--x", type=float, nargs=2, metavar=("A", "B"), help="measure on [A, B] only")
     energy = sub.add_parser("energy-balance", help="the energy budget term by term, from diagnostics.csv")
     energy.add_argument("output_dir")
     energy.add_argument("--max-residual", type=float)
@@ -673,6 +741,8 @@ def main():
         sys.exit(region(args))
     elif args.command == "mass-balance":
         sys.exit(mass_balance(args))
+    elif args.command == "riemann-error":
+        sys.exit(riemann_error(args))
     elif args.command == "energy-balance":
         sys.exit(energy_balance(args))
     else:

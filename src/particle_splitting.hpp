@@ -1,0 +1,62 @@
+#pragma once
+// Splitting of particles whose volume has doubled (numerics/split_particles).
+//
+// In a strong expansion the particles move apart; once a particle's domain (its initial share of
+// a cell, stretched with the gas) is wider than a cell, GIMP's stencil cannot follow it (the
+// domain is clamped to one cell), the nodes between particles lose their mass, the particles stop
+// feeling the pressure gradient and coast with a frozen state, and gaps with no gas open (Toro's
+// test 2). A particle whose volume has doubled is split in two, before that happens (splitting only
+// once the domain outgrows a cell lets the particles of a near-vacuum drift apart first, each alone
+// in its stencil, which then sees no velocity gradient and no longer expands), along the axis its
+// domain has stretched more along: each half
+// takes half the mass and half the domain, centred on its half of the parent's domain, with the
+// parent's velocity, density, specific energy and pressure. Mass, momentum and energy are
+// conserved exactly.
+//
+// Ids. The parent keeps its id; the new halves of a step get the ids -1 - n, n counting every
+// split of the run, in the order of their parents' ids over all ranks: independent of the ranks,
+// the threads and the particle order, and never reused (the count is carried in checkpoints).
+// Negative ids cannot meet the ids of initial or entering particles, which are >= 0.
+#include "boundary_conditions.hpp"
+#include "case_config.hpp"
+#include "parallel.hpp"
+#include "particles.hpp"
+
+namespace mpmflow {
+
+// Whether a particle of volume `volume` splits, and along which axis: -1 while its volume is at most
+// twice `initial_volume` (the volume of a particle as placed: a cell over the particles per cell);
+// else 0 (x) or 1 (y), the axis its domain has stretched more along (stretch_x, stretch_y).
+// The volume M / rho, not the domain, decides: the domain follows only the diagonal of the
+// deformation, and gas sheared along a body stretches domains along the flow and squeezes them
+// across it without changing their volume (splitting on a domain's width split such particles
+// again and again).
+KOKKOS_INLINE_FUNCTION int split_axis(real_t volume, real_t initial_volume, real_t stretch_x, real_t stretch_y) {
+  if (!(volume > 2 * initial_volume)) return -1;
+  return stretch_x >= stretch_y ? 0 : 1;
+}
+
+class ParticleSplitting {
+ public:
+  ParticleSplitting() = default;
+  ParticleSplitting(const CaseConfig& config, const GridSlab& slab);
+
+  // Splits every particle whose volume has doubled (once per step: one that has grown more splits
+  // again in the next steps). New particles are appended. Collective.
+  // Returns the number of splits over all ranks.
+  long long split(ParticleState& particles, const ParticleBoundaries& boundaries, const ParallelContext& context);
+
+  // Splits so far over all ranks (the next new id is -1 - splits()); restored on restart.
+  long long splits() const { return splits_; }
+  void restore(long long splits) { splits_ = splits; }
+  bool enabled() const { return enabled_; }
+
+ private:
+  bool enabled_ = false;
+  real_t initial_half_x_ = 0, initial_half_y_ = 0;  // a particle's domain at stretch 1
+  real_t initial_volume_ = 0;                       // a cell over the particles per cell
+  long long splits_ = 0;
+  IndexView parent_;  // this step's splitting particles, in index order
+};
+
+}  // namespace mpmflow
