@@ -14,6 +14,14 @@ KOKKOS_INLINE_FUNCTION real_t square_root(real_t x) {
 #endif
 }
 
+KOKKOS_INLINE_FUNCTION real_t power(real_t x, real_t y) {
+#if KOKKOS_VERSION >= 40000
+  return Kokkos::pow(x, y);
+#else
+  return Kokkos::Experimental::pow(x, y);
+#endif
+}
+
 // The largest finite real_t (Kokkos' numeric traits: the same spelling in Kokkos 3.4 and 4.x).
 constexpr real_t largest_real = Kokkos::Experimental::finite_max<real_t>::value;
 

@@ -64,7 +64,82 @@ struct InternalForce {
 // ---- Cell averages (numerics/cell_averaged_strain) ----------------------------------------------
 
 // The columns of the per-cell sums: particle volume, (P + Q) x volume, velocity divergence x volume.
-enum CellSumColumn : int { cell_volume = 0, cell_stress_volume, cell_divergence_volume, num_cell_sum_columns };
+enum CellSumColumn : int {
+  cell_volume = 0,
+  cell_stress_volume,
+  cell_divergence_volume,
+  // For the pressure equilibrium at the start of a step: the cell's internal energy sum M e, and
+  // the sums of V p^(1/gamma), V p, V p^2, M (= V rho) and V rho^2.
+  cell_internal_energy,
+  cell_entropy_weight,
+  cell_pressure_volume,
+  cell_pressure_squared_volume,
+  cell_mass,
+  cell_density_squared_volume,
+  num_cell_sum_columns
+};
+
+// P2C of what the pressure equilibrium needs (the columns from cell_internal_energy on).
+struct EquilibriumSums {
+  static constexpr int num_components = 6;
+  RealView mass, density, specific_energy, pressure;
+  real_t gamma;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[6]) const {
+    const real_t volume = mass(p) / density(p), pressure_p = pressure(p) > 0 ? pressure(p) : real_t(0);
+    value[0] = mass(p) * specific_energy(p);
+    value[1] = volume * power(pressure_p, 1 / gamma);
+    value[2] = volume * pressure_p;
+    value[3] = volume * pressure_p * pressure_p;
+    value[4] = mass(p);
+    value[5] = mass(p) * density(p);
+  }
+};
+
+// The relative spread (volume-weighted standard deviation over mean) of a quantity of a cell from
+// its sums of V q and V q^2.
+KOKKOS_INLINE_FUNCTION real_t relative_spread(real_t volume, real_t sum, real_t sum_of_squares) {
+  const real_t mean = sum / volume, variance = sum_of_squares / volume - mean * mean;
+  return variance > 0 && mean > 0 ? square_root(variance) / mean : real_t(0);
+}
+
+// The pressure equilibrium within a cell: the particles of a cell are brought towards one
+// pressure, (gamma - 1) sum(M e) / sum(V), keeping the cell's volume and internal energy (so mass,
+// momentum and energy are conserved exactly), each particle's share of the volume in proportion
+// to V p^(1/gamma) (as if each were compressed or expanded isentropically to the common pressure).
+// Pressure differences within a cell are below what the grid resolves: the gas would even them
+// out acoustically within a step, but MPM's forces, made on the nodes, cannot. Only where the
+// pressures and densities of a cell differ by noise: the relaxation is 1 - s / 0.25 of the way, s
+// the larger relative spread (standard deviation over mean, volume-weighted) of the cell's
+// pressures and densities, the same for all its particles (so that the sums hold), and nothing
+// across a shock or a contact (s >= 0.25).
+struct EquilibrateCellPressure {
+  RealView mass, density, specific_energy, pressure;
+  IndexView cell;
+  NodeFieldsView sums;
+  real_t gamma;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p) const {
+    const index_t c = cell(p);
+    const real_t volume_c = sums(c, cell_volume), weight_c = sums(c, cell_entropy_weight);
+    if (!(volume_c > 0 && weight_c > 0)) return;
+    // The larger of the pressure's and the density's spread: a shock, or a particle unlike its
+    // neighbours (one that expanded alone, near a vacuum), is left alone.
+    const real_t pressure_spread =
+        relative_spread(volume_c, sums(c, cell_pressure_volume), sums(c, cell_pressure_squared_volume));
+    const real_t density_spread = relative_spread(volume_c, sums(c, cell_mass), sums(c, cell_density_squared_volume));
+    const real_t spread = pressure_spread > density_spread ? pressure_spread : density_spread;
+    const real_t relaxation = 1 - spread / real_t(0.25);
+    if (relaxation <= 0) return;
+    const real_t volume = mass(p) / density(p), pressure_p = pressure(p) > 0 ? pressure(p) : real_t(0);
+    const real_t equilibrium_volume = volume_c * volume * power(pressure_p, 1 / gamma) / weight_c;
+    const real_t equilibrium_energy = sums(c, cell_internal_energy) * equilibrium_volume / volume_c;  // M e
+    const real_t new_volume = volume + relaxation * (equilibrium_volume - volume);
+    const real_t new_energy = mass(p) * specific_energy(p) + relaxation * (equilibrium_energy - mass(p) * specific_energy(p));
+    if (!(new_volume > 0 && new_energy > 0)) return;
+    density(p) = mass(p) / new_volume;
+    specific_energy(p) = new_energy / mass(p);
+    pressure(p) = perfect_gas_pressure(gamma, density(p), specific_energy(p));
+  }
+};
 
 // P2C(V), P2C((P + Q) V): the volume-weighted mean stress of each cell, before the force P2GD.
 struct VolumeAndStress {
@@ -293,13 +368,26 @@ class Transfers final : public TransferKernels {
       : geometry_(geometry),
         fields_(fields),
         cell_averaged_strain_(config.numerics.cell_averaged_strain),
+        gamma_(config.physics.gamma),
         cell_sums_("cell_sums", cell_averaged_strain_ ? geometry.num_cells() : 0, num_cell_sum_columns),
         accumulation_(fields, cell_sums_),
         shape_(make_shape<Shape>(config, geometry)) {}
 
   void p2g_mass_momentum_force(const ParticleState& pt) override {
     accumulation_.prepare(pt, geometry_);
-    if (cell_averaged_strain_) {  // each cell's volume and (P + Q) x volume, for its mean stress
+    if (cell_averaged_strain_) {
+      // The particles of each cell brought towards one pressure ...
+      Kokkos::deep_copy(cell_sums_, real_t(0));
+      p2g_begin(accumulation_.cells(), cell_sums_);
+      p2c("p2c_volume", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_volume,
+          VolumeAndStress{pt.mass, pt.density, pt.pressure, pt.artificial_viscosity});
+      p2c("p2c_equilibrium", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_internal_energy,
+          EquilibriumSums{pt.mass, pt.density, pt.specific_energy, pt.pressure, gamma_});
+      p2g_end(accumulation_.cells(), cell_sums_);
+      for_each_particle("cell_pressure_equilibrium", pt.count,
+                        EquilibrateCellPressure{pt.mass, pt.density, pt.specific_energy, pt.pressure, pt.cell,
+                                                cell_sums_, gamma_});
+      // ... then each cell's volume and (P + Q) x volume, for its mean stress.
       Kokkos::deep_copy(cell_sums_, real_t(0));
       p2g_begin(accumulation_.cells(), cell_sums_);
       p2c("p2c_volume_stress", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_volume,
@@ -390,6 +478,7 @@ class Transfers final : public TransferKernels {
   GridGeometry geometry_;
   GridFields fields_;
   bool cell_averaged_strain_;
+  real_t gamma_;
   NodeFieldsView cell_sums_;  // (cell, CellSumColumn) with cell-averaged strain
   Accumulation accumulation_;
   Shape shape_;
