@@ -46,24 +46,29 @@ void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, rea
       });
 }
 
-void keep_momentum_and_force_before_conditions(const GridFields& fields) {
-  const NodeFieldsView state = fields.state, raw = fields.before_conditions;
+namespace {
+
+// to(i, to_first + c) = from(i, from_first + c) for c < count, on every node.
+void copy_columns(const char* label, const NodeFieldsView& from, int from_first, const NodeFieldsView& to, int to_first,
+                  int count) {
   Kokkos::parallel_for(
-      "keep_momentum_and_force", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))), KOKKOS_LAMBDA(const index_t i) {
-        raw(i, GridFields::raw_momentum_x) = state(i, GridFields::momentum_x);
-        raw(i, GridFields::raw_momentum_y) = state(i, GridFields::momentum_y);
-        raw(i, GridFields::raw_force_x) = state(i, GridFields::force_x);
-        raw(i, GridFields::raw_force_y) = state(i, GridFields::force_y);
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(from.extent(0))), KOKKOS_LAMBDA(const index_t i) {
+        for (int c = 0; c < count; ++c) to(i, to_first + c) = from(i, from_first + c);
       });
 }
 
+}  // namespace
+
+void keep_momentum_and_force_before_conditions(const GridFields& fields) {
+  static_assert(GridFields::force_y == GridFields::momentum_x + 3 && GridFields::raw_force_y == GridFields::raw_momentum_x + 3,
+                "momentum_x .. force_y and their copies are adjacent columns");
+  copy_columns("keep_momentum_and_force", fields.state, GridFields::momentum_x, fields.before_conditions,
+               GridFields::raw_momentum_x, 4);
+}
+
 void keep_remap_before_conditions(const GridFields& fields) {
-  const NodeFieldsView remap = fields.momentum_remap, raw = fields.before_conditions;
-  Kokkos::parallel_for(
-      "keep_remap", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(remap.extent(0))), KOKKOS_LAMBDA(const index_t i) {
-        raw(i, GridFields::raw_remap_momentum_x) = remap(i, GridFields::remap_momentum_x);
-        raw(i, GridFields::raw_remap_momentum_y) = remap(i, GridFields::remap_momentum_y);
-      });
+  copy_columns("keep_remap", fields.momentum_remap, GridFields::remap_momentum_x, fields.before_conditions,
+               GridFields::raw_remap_momentum_x, 2);
 }
 
 double boundary_work(const GridFields& fields, const IndexRange2D& owned, const GridGeometry& geometry, real_t dt,
