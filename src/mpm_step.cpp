@@ -82,7 +82,7 @@ void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long 
     auto t = timers.scope(Phase::open_sides);
     s.open_sides.exchange(s.particles, slab, dt, step);
   }
-  if (s.splitting.enabled()) {  // particles whose domain has grown wider than a cell split in two
+  if (s.splitting.enabled()) {  // particles whose volume has doubled split in two
     auto t = timers.scope(Phase::splitting);
     s.splitting.split(s.particles, slab.particle_boundaries(), slab.context());
   }

@@ -5,13 +5,12 @@
 // a cell, stretched with the gas) is wider than a cell, GIMP's stencil cannot follow it (the
 // domain is clamped to one cell), the nodes between particles lose their mass, the particles stop
 // feeling the pressure gradient and coast with a frozen state, and gaps with no gas open (Toro's
-// test 2). A particle whose volume has doubled is split in two, before that happens (splitting only
+// test 2). A particle whose volume has doubled is split in two well before that (splitting only
 // once the domain outgrows a cell lets the particles of a near-vacuum drift apart first, each alone
 // in its stencil, which then sees no velocity gradient and no longer expands), along the axis its
-// domain has stretched more along: each half
-// takes half the mass and half the domain, centred on its half of the parent's domain, with the
-// parent's velocity, density, specific energy and pressure. Mass, momentum and energy are
-// conserved exactly.
+// domain has stretched more along: each half takes half the mass and half the domain, centred on
+// its half of the parent's domain, with the parent's velocity, density, specific energy and
+// pressure. Mass, momentum and energy are conserved exactly.
 //
 // Ids. The parent keeps its id; the new halves of a step get the ids -1 - n, n counting every
 // split of the run, in the order of their parents' ids over all ranks: independent of the ranks,

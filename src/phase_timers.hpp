@@ -25,7 +25,7 @@ enum class Phase : int {
   g2pd_particle_update,       // 10.
   particle_move,              // 11.
   open_sides,                 // particles removed or recycled at open sides, the free stream's entered
-  splitting,                  // particles wider than a cell split in two
+  splitting,                  // particles whose volume has doubled split in two
   migration,                  // particles to the ranks owning their cells
   cell_map,                   // each particle's cell
   reorder,                    // 12.
