@@ -168,8 +168,10 @@ struct NumericsConfig {
   // those are understood.
   bool cell_averaged_strain = false;
   // A particle whose volume has doubled splits in two (particle_splitting.hpp), so that no gap
-  // opens in the gas where it expands strongly.
-  bool split_particles = true;
+  // opens in the gas where it expands strongly (Toro's test 2). Off by default: in the Mach 3
+  // cylinder's wake split particles set a time step 5 times smaller (12160 steps instead of 2353
+  // at the default 200 x 100 cells), which is not understood yet.
+  bool split_particles = false;
 };
 
 struct CaseConfig {
