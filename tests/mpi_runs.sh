@@ -18,6 +18,20 @@ if [[ $mpi_version == *"Open MPI"* || $mpi_version == *"OpenRTE"* ]]; then mpi_f
 rm -rf "$work"
 mkdir -p "$work"
 
+# stops_with_message LOG EXPECTED WHAT COMMAND...: COMMAND (an mpirun of ranks that must fail)
+# within 60 s, its output in LOG; every rank must stop (no hang) and LOG must hold EXPECTED.
+stops_with_message() {
+  local log=$1 expected=$2 what=$3 status
+  shift 3
+  set +e
+  timeout 60 "$@" > "$log" 2>&1
+  status=$?
+  set -e
+  grep "mpmflow: error" "$log" || true
+  [ $status -ne 124 ] || { echo "FAILED: $what: the job hangs"; exit 1; }
+  grep -q "$expected" "$log" || { echo "FAILED: $what: no message '$expected' (exit $status)"; exit 1; }
+}
+
 # run NP OUTPUT_DIR CASE [mpmflow options...]: mpmflow on NP ranks, its log in OUTPUT_DIR.log
 run() {
   local np=$1 out=$2 case_file=$3
@@ -103,30 +117,20 @@ case $test_name in
     [ $status -ne 0 ] || { echo "FAILED: exit status 0 with too many ranks"; exit 1; }
     [ "$(grep -c 'cannot be split among 4 ranks' "$work/too_many.log")" = 1 ] || { echo "FAILED: rank-count message"; exit 1; }
     # Ranks given different command lines (here --output): every rank stops at once, exit 2.
-    set +e
-    timeout 60 "$mpiexec" "${mpi_flags[@]}" -np 1 "$mpmflow" run "$source_dir/cases/sod.json" --output "$work/out_a" : \
-      -np 1 "$mpmflow" run "$source_dir/cases/sod.json" --output "$work/out_b" > "$work/different.log" 2>&1
-    status=$?
-    set -e
-    grep "mpmflow: error" "$work/different.log" || true
-    [ $status -ne 124 ] || { echo "FAILED: ranks given different --output hang"; exit 1; }
-    grep -q "rank 1 was given another command line than rank 0" "$work/different.log" \
-      || { echo "FAILED: no message for different command lines (exit $status)"; exit 1; }
+    stops_with_message "$work/different.log" "rank 1 was given another command line than rank 0" \
+      "ranks given different --output" \
+      "$mpiexec" "${mpi_flags[@]}" -np 1 "$mpmflow" run "$source_dir/cases/sod.json" --output "$work/out_a" : \
+      -np 1 "$mpmflow" run "$source_dir/cases/sod.json" --output "$work/out_b"
     # A checkpoint one rank cannot see (the same relative path, another working directory): every
     # rank stops within the timeout, the message names the rank.
     "$mpmflow" run "$source_dir/cases/sod.json" --set domain/cells_x=20 --set output/checkpoint_interval=10 \
       --output "$work/with_checkpoint" --progress-interval 1000 > /dev/null
     mkdir -p "$work/sees" "$work/blind"
     cp "$(ls "$work/with_checkpoint"/*_checkpoint_*.h5 | head -1)" "$work/sees/ck.h5"
-    set +e
-    timeout 60 "$mpiexec" "${mpi_flags[@]}" -np 1 -wdir "$work/sees" "$mpmflow" run --restart ck.h5 --output out : \
-      -np 1 -wdir "$work/blind" "$mpmflow" run --restart ck.h5 --output out > "$work/blind.log" 2>&1
-    status=$?
-    set -e
-    grep "mpmflow: error" "$work/blind.log" || true
-    [ $status -ne 124 ] || { echo "FAILED: a checkpoint missing on one rank hangs the job"; exit 1; }
-    grep -q "no such checkpoint file (on rank 1)" "$work/blind.log" \
-      || { echo "FAILED: no message naming the rank that cannot see the checkpoint (exit $status)"; exit 1; }
+    stops_with_message "$work/blind.log" "no such checkpoint file (on rank 1)" \
+      "a checkpoint missing on one rank" \
+      "$mpiexec" "${mpi_flags[@]}" -np 1 -wdir "$work/sees" "$mpmflow" run --restart ck.h5 --output out : \
+      -np 1 -wdir "$work/blind" "$mpmflow" run --restart ck.h5 --output out
     ;;
   *)
     echo "unknown test $test_name"
