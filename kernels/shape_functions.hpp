@@ -8,6 +8,10 @@
 //                 the gas expands or compresses. Its weight gradients are continuous when a
 //                 particle crosses a cell face, which removes the grid-crossing force noise that
 //                 keeps linear MPM from converging (Steffen, Kirby & Berzins 2008).
+//  - BSplineShape: the quadratic B-spline basis (Steffen, Kirby & Berzins 2008; the paper's
+//                 announced next step), 3 x 3 nodes. It is GIMP with every particle's domain a
+//                 whole cell, whatever the particle's size: smoother weights (C1 everywhere) and
+//                 no per-particle state, at the price of smoothing over a wider stencil.
 // Each policy maps (p, cell, x, y) to a SeparableStencil: its nodes, phi_i(X_p), grad phi_i(X_p).
 #include "kernels/grid_geometry.hpp"
 #include "kernels/types.hpp"
@@ -108,6 +112,44 @@ KOKKOS_FORCEINLINE_FUNCTION void gimp_axis_weights(real_t xi, real_t lambda, rea
   gradient[1] = -(gradient[0] + gradient[2]);
 }
 
+// Along one axis: the nearest node n to a particle at `offset` cell widths past the node of its
+// cell (c), as n - c in {0, 1}, and the particle's position relative to it in cell widths.
+KOKKOS_INLINE_FUNCTION index_t nearest_node(real_t offset, real_t& xi) {
+  const bool upper = offset >= real_t(0.5);
+  xi = upper ? offset - 1 : offset;
+  return upper ? 1 : 0;
+}
+
+// The 3 x 3 nodes around the node nearest to a particle at (x, y) in `cell`, weights not yet set;
+// xi and eta are the particle's position relative to that node in cell widths, in [-1/2, 1/2].
+// The grid's ghost layer holds the outer nodes for particles in boundary cells.
+KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<3> centred_stencil(const GridGeometry& grid, index_t cell, real_t x,
+                                                                real_t y, real_t& xi, real_t& eta) {
+  const index_t ci = cell % grid.cells_x();
+  const index_t cj = cell / grid.cells_x();
+  const index_t ni = ci + nearest_node((x - grid.node_x(ci)) * (real_t(1) / grid.spacing_x), xi);
+  const index_t nj = cj + nearest_node((y - grid.node_y(cj)) * (real_t(1) / grid.spacing_y), eta);
+  SeparableStencil<3> s;
+  s.first_node = grid.node_index(ni - 1, nj - 1);
+  s.row_stride = grid.nodes_x;
+  return s;
+}
+
+// 1D quadratic B-spline weights of the nodes n - 1, n, n + 1 for a particle at xi = (x_p - x_n) / h
+// in [-1/2, 1/2], and their derivatives d/dx_p. (GIMP's gimp_axis_weights at lambda = 1/2 gives the
+// same: the hat function averaged over a whole cell is the quadratic B-spline.)
+KOKKOS_FORCEINLINE_FUNCTION void bspline_axis_weights(real_t xi, real_t inv_h, real_t (&weight)[3],
+                                                 real_t (&gradient)[3]) {
+  const real_t below = real_t(0.5) - xi;
+  const real_t above = real_t(0.5) + xi;
+  weight[0] = real_t(0.5) * below * below;
+  weight[1] = real_t(0.75) - xi * xi;
+  weight[2] = real_t(0.5) * above * above;
+  gradient[0] = -below * inv_h;
+  gradient[1] = -2 * xi * inv_h;
+  gradient[2] = above * inv_h;
+}
+
 struct LinearShape {
   static constexpr int stencil_size = 4;
   // Cells this far apart along an axis share no node (the stencil spans 2 node lines).
@@ -134,28 +176,27 @@ struct GimpShape {
     return clamp_real(initial * stretch / spacing, real_t(1e-3), real_t(0.5));
   }
 
-  // Along one axis: the nearest node n to a particle at `offset` cell widths past the node of
-  // its cell (c), as n - c in {0, 1}, and the particle's position relative to it in cell widths.
-  KOKKOS_INLINE_FUNCTION static index_t nearest_node(real_t offset, real_t& xi) {
-    const bool upper = offset >= real_t(0.5);
-    xi = upper ? offset - 1 : offset;
-    return upper ? 1 : 0;
-  }
-
-  // The 3 x 3 nodes around the node nearest to the particle; the grid's ghost layer holds the
-  // outer ones for particles in boundary cells.
   KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<3> operator()(index_t p, index_t cell, real_t x, real_t y) const {
     const real_t inv_hx = real_t(1) / grid.spacing_x, inv_hy = real_t(1) / grid.spacing_y;
-    const index_t ci = cell % grid.cells_x();
-    const index_t cj = cell / grid.cells_x();
     real_t xi, eta;
-    const index_t ni = ci + nearest_node((x - grid.node_x(ci)) * inv_hx, xi);
-    const index_t nj = cj + nearest_node((y - grid.node_y(cj)) * inv_hy, eta);
-    SeparableStencil<3> s;
-    s.first_node = grid.node_index(ni - 1, nj - 1);
-    s.row_stride = grid.nodes_x;
+    SeparableStencil<3> s = centred_stencil(grid, cell, x, y, xi, eta);
     gimp_axis_weights(xi, half_length_in_cells(initial_half_length_x, stretch_x(p), grid.spacing_x), inv_hx, s.wx, s.gx);
     gimp_axis_weights(eta, half_length_in_cells(initial_half_length_y, stretch_y(p), grid.spacing_y), inv_hy, s.wy, s.gy);
+    return s;
+  }
+};
+
+struct BSplineShape {
+  static constexpr int stencil_size = 9;
+  // The same 3 x 3 stencil as GIMP's: cells 4 apart share no node.
+  static constexpr int colour_period = 4;
+  GridGeometry grid;
+  KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<3> operator()(index_t /*particle*/, index_t cell, real_t x,
+                                                             real_t y) const {
+    real_t xi, eta;
+    SeparableStencil<3> s = centred_stencil(grid, cell, x, y, xi, eta);
+    bspline_axis_weights(xi, real_t(1) / grid.spacing_x, s.wx, s.gx);
+    bspline_axis_weights(eta, real_t(1) / grid.spacing_y, s.wy, s.gy);
     return s;
   }
 };

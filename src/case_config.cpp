@@ -525,6 +525,7 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     r.optional_boolean("energy_consistent", cfg.numerics.energy_consistent);
     r.optional_boolean("cell_averaged_strain", cfg.numerics.cell_averaged_strain);
     r.optional_boolean("split_particles", cfg.numerics.split_particles);
+    r.optional_boolean("merge_particles", cfg.numerics.merge_particles);
     r.finish();
   }
 
@@ -633,7 +634,8 @@ std::set<std::string> case_file_keys() {
     "output": {"directory": "out", "snapshots": 1, "checkpoint_interval": 0, "checkpoints_kept": 2},
     "decomposition": {"axis": "x", "balance_interval": 0},
     "numerics": {"reorder_interval": 0, "p2g": "automatic", "shape_function": "gimp", "fused_kernels": true,
-                 "energy_consistent": true, "cell_averaged_strain": false, "split_particles": true}
+                 "energy_consistent": true, "cell_averaged_strain": false, "split_particles": true,
+                 "merge_particles": true}
   })";
   PointsFiles outline;
   outline.files["outline.dat"] = {{0, 0}, {1, 0}, {0.5, 0.5}};
@@ -719,7 +721,8 @@ std::string effective_case_json(const CaseConfig& c) {
                    {"fused_kernels", c.numerics.fused_kernels},
                    {"energy_consistent", c.numerics.energy_consistent},
                    {"cell_averaged_strain", c.numerics.cell_averaged_strain},
-                   {"split_particles", c.numerics.split_particles}};
+                   {"split_particles", c.numerics.split_particles},
+                   {"merge_particles", c.numerics.merge_particles}};
   return e.dump(2);
 }
 

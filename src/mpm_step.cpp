@@ -94,6 +94,10 @@ void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long 
     auto t = timers.scope(Phase::cell_map);
     update_cell_map(slab.geometry(), particles);
   }
+  if (s.merging.enabled()) {  // tiny particles of a cell merged in pairs (needs the cells)
+    auto t = timers.scope(Phase::merging);
+    s.merging.merge(s.particles);
+  }
   if (settings.reorder_interval > 0 && step % settings.reorder_interval == 0) {  // 12. optional reordering
     auto t = timers.scope(Phase::reorder);
     reorder_particles_by_cell(particles, slab.geometry().num_cells());

@@ -3,6 +3,7 @@
 // time step size of step 13 and rebalances the slabs between steps).
 #include "open_boundaries.hpp"
 #include "particle_migration.hpp"
+#include "particle_merging.hpp"
 #include "particle_splitting.hpp"
 #include "particles.hpp"
 #include "phase_timers.hpp"
@@ -19,6 +20,7 @@ struct StepState {
   ParticleMigration& migration;
   OpenBoundaries& open_sides;
   ParticleSplitting& splitting;
+  const ParticleMerging& merging;
   PhaseTimers& timers;
   ObstacleForces& obstacle_forces;  // of the step, on this slab's nodes
 };

@@ -86,7 +86,8 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
         });
   }
 
-  // The new halves' ids: -1 - (splits so far + the rank of their parent's id among all parents).
+  // The halves' ids: -1 - 2 n and -2 - 2 n, n = splits so far + the rank of their parent's id among
+  // all parents.
   ParticleIdView new_id("split_new_id", num_local);
   {
     const ParticleIdView id = particles.id;
@@ -100,7 +101,7 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
     std::sort(all.begin(), all.end());
     for (index_t k = 0; k < num_local; ++k) {
       const long long rank = std::lower_bound(all.begin(), all.end(), local[static_cast<size_t>(k)]) - all.begin();
-      host(k) = -1 - (splits_ + rank);
+      host(k) = -1 - 2 * (splits_ + rank);
     }
     Kokkos::deep_copy(new_id, host);
   }
@@ -129,7 +130,8 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
           pt.domain_stretch_y(p) *= real_t(0.5);
           pt.domain_stretch_y(q) = pt.domain_stretch_y(p);
         }
-        pt.id(q) = new_id(k);
+        pt.id(p) = new_id(k);
+        pt.id(q) = new_id(k) - 1;
       });
   splits_ += num_global;
   return num_global;

@@ -12,10 +12,11 @@
 // its half of the parent's domain, with the parent's velocity, density, specific energy and
 // pressure. Mass, momentum and energy are conserved exactly.
 //
-// Ids. The parent keeps its id; the new halves of a step get the ids -1 - n, n counting every
-// split of the run, in the order of their parents' ids over all ranks: independent of the ranks,
-// the threads and the particle order, and never reused (the count is carried in checkpoints).
-// Negative ids cannot meet the ids of initial or entering particles, which are >= 0.
+// Ids. Both halves get new ids, -1 - 2 n and -2 - 2 n, n counting every split of the run, in the
+// order of their parents' ids over all ranks: independent of the ranks, the threads and the particle
+// order, and never reused (the count is carried in checkpoints). Negative ids cannot meet the ids of
+// initial or entering particles, which are >= 0, so a negative id marks a split particle (only
+// split particles merge, particle_merging.hpp).
 #include "boundary_conditions.hpp"
 #include "case_config.hpp"
 #include "parallel.hpp"
@@ -45,7 +46,8 @@ class ParticleSplitting {
   // Returns the number of splits over all ranks.
   long long split(ParticleState& particles, const ParticleBoundaries& boundaries, const ParallelContext& context);
 
-  // Splits so far over all ranks (the next new id is -1 - splits()); restored on restart.
+  // Splits so far over all ranks (the next new ids are -1 - 2 splits() and -2 - 2 splits());
+  // restored on restart.
   long long splits() const { return splits_; }
   void restore(long long splits) { splits_ = splits; }
   bool enabled() const { return enabled_; }

@@ -28,6 +28,7 @@ enum class Phase : int {
   splitting,                  // particles whose volume has doubled split in two
   migration,                  // particles to the ranks owning their cells
   cell_map,                   // each particle's cell
+  merging,                    // tiny particles of a cell merged in pairs
   reorder,                    // 12.
   load_balance,               // the slabs moved to even out the particles
   output,
@@ -40,7 +41,8 @@ constexpr std::array<const char*, static_cast<size_t>(Phase::count)> phase_names
     "boundary_conditions", "grid_momentum_update", "g2p_p2g_velocity_momentum", "g2p_velocity_acceleration",
     "p2g_momentum_remap",  "grid_remap_velocity",  "g2pd_particle_update",      "particle_move",
     "open_sides",          "splitting",            "migration",                 "cell_map",
-    "reorder",             "load_balance",         "output",                    "checkpoint"};
+    "merging",             "reorder",              "load_balance",              "output",
+    "checkpoint"};
 
 constexpr const char* phase_name(Phase phase) { return phase_names[static_cast<size_t>(phase)]; }
 

@@ -64,7 +64,8 @@ Solver::Solver(const CaseConfig& config, std::unique_ptr<SlabState> slab_state, 
       slab_(std::move(slab_state)),
       particles_(std::move(particles)),
       open_sides_(config, slab_->slab()),
-      splitting_(config, slab_->slab()) {
+      splitting_(config, slab_->slab()),
+      merging_(config, slab_->geometry()) {
   transfers_ = make_transfer_kernels(config_, slab_->geometry(), slab_->fields());
   settings_.fused_kernels = config_.numerics.fused_kernels;
   settings_.reorder_interval = config_.numerics.reorder_interval;
@@ -134,7 +135,7 @@ void Solver::report_invalid_particle(bool local_invalid) const {
 
 void Solver::advance(real_t dt) {
   particle_steps_ += particles_.count;
-  mpm_step({*slab_, particles_, *transfers_, migration_, open_sides_, splitting_, timers_, step_forces_}, settings_, dt,
+  mpm_step({*slab_, particles_, *transfers_, migration_, open_sides_, splitting_, merging_, timers_, step_forces_}, settings_, dt,
            step_count_ + 1);
   ++step_count_;
   if (!config_.obstacles.empty()) {

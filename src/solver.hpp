@@ -135,6 +135,7 @@ class Solver {
   ParticleMigration migration_;
   OpenBoundaries open_sides_;
   ParticleSplitting splitting_;
+  ParticleMerging merging_;
   PhaseTimers timers_;
   StepSettings settings_;
   std::vector<BalanceReport> balance_reports_;

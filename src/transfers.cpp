@@ -278,6 +278,7 @@ struct UpdateThermodynamicsFromCellMeans {
 
 // The shape policy with the particle Views of now (migration may have reallocated them).
 LinearShape current_shape(const LinearShape& shape, const ParticleState&) { return shape; }
+BSplineShape current_shape(const BSplineShape& shape, const ParticleState&) { return shape; }
 GimpShape current_shape(GimpShape shape, const ParticleState& particles) {
   shape.stretch_x = particles.domain_stretch_x;
   shape.stretch_y = particles.domain_stretch_y;
@@ -290,6 +291,10 @@ Shape make_shape(const CaseConfig& config, const GridGeometry& geometry);
 template <>
 LinearShape make_shape<LinearShape>(const CaseConfig&, const GridGeometry& geometry) {
   return LinearShape{geometry};
+}
+template <>
+BSplineShape make_shape<BSplineShape>(const CaseConfig&, const GridGeometry& geometry) {
+  return BSplineShape{geometry};
 }
 template <>
 GimpShape make_shape<GimpShape>(const CaseConfig& config, const GridGeometry& geometry) {
@@ -487,8 +492,12 @@ class Transfers final : public TransferKernels {
 template <class Accumulation>
 std::unique_ptr<TransferKernels> make_for_shape(const CaseConfig& config, const GridGeometry& geometry,
                                                 const GridFields& fields) {
-  if (config.numerics.shape_function == ShapeFunction::gimp)
-    return std::make_unique<Transfers<Accumulation, GimpShape>>(config, geometry, fields);
+  switch (config.numerics.shape_function) {
+    case ShapeFunction::gimp: return std::make_unique<Transfers<Accumulation, GimpShape>>(config, geometry, fields);
+    case ShapeFunction::bspline:
+      return std::make_unique<Transfers<Accumulation, BSplineShape>>(config, geometry, fields);
+    case ShapeFunction::linear: break;
+  }
   return std::make_unique<Transfers<Accumulation, LinearShape>>(config, geometry, fields);
 }
 

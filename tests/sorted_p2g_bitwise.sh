@@ -3,7 +3,8 @@
 # recycling, obstacle, reordering every 20 steps) give bitwise identical snapshots with 1 and 2
 # OpenMP threads and on a repeated run. The fused G2P + remap P2G kernel does the same arithmetic
 # in the same order as the two generic kernels; only FMA contraction, which the compiler may do
-# differently in the two, separates them: equal to 1e-8 at t = 1. Run by ctest: sorted_p2g_bitwise.sh MPMFLOW SOURCE_DIR WORK_DIR
+# differently in the two, separates them: 1e-14 at the first output (t = 0.25), compared to 1e-12.
+# (Later the round-off grows some 100-fold per quarter time unit in the wake, 1e-3 by t = 1.) Run by ctest: sorted_p2g_bitwise.sh MPMFLOW SOURCE_DIR WORK_DIR
 set -euo pipefail
 mpmflow=$1 source_dir=$2 work=$3
 compare="/usr/bin/python3 $source_dir/tools/compare_outputs.py"
@@ -29,5 +30,5 @@ $compare "$work/cylinder_1" "$work/cylinder_2" --all --exact | tail -1
 $compare "$work/cylinder_2" "$work/cylinder_2_again" --all --exact | tail -1
 run 2 "$work/cylinder_2_unfused" "${cylinder[@]}" --set numerics/fused_kernels=false
 grep -q "kernels unfused" "$work/cylinder_2_unfused.log" || { echo "FAILED: not the unfused kernels"; exit 1; }
-$compare "$work/cylinder_2" "$work/cylinder_2_unfused" --all --tolerance 1e-8 | tail -1
+$compare "$work/cylinder_2" "$work/cylinder_2_unfused" --step 1 --tolerance 1e-12 | tail -1
 echo "PASSED"

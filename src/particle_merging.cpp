@@ -1,0 +1,120 @@
+#include "particle_merging.hpp"
+
+#include <algorithm>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "gas_physics.hpp"
+#include "kernels/particle_compaction.hpp"
+
+namespace mpmflow {
+namespace {
+
+// Particle `gone` merged into particle `keep`. `gone` is left with no mass, which marks it for
+// removal.
+KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, index_t gone, real_t gamma) {
+  const real_t m1 = pt.mass(keep), m2 = pt.mass(gone);
+  const real_t m = m1 + m2;
+  const real_t w1 = m1 / m, w2 = m2 / m;
+  const real_t volume = m1 / pt.density(keep) + m2 / pt.density(gone);
+  const real_t du = pt.velocity_x(keep) - pt.velocity_x(gone);
+  const real_t dv = pt.velocity_y(keep) - pt.velocity_y(gone);
+  // Kinetic energy of the relative motion, lost by averaging the momenta: becomes heat.
+  const real_t relative_kinetic_energy = real_t(0.5) * m1 * w2 * (du * du + dv * dv);
+  const real_t energy = (m1 * pt.specific_energy(keep) + m2 * pt.specific_energy(gone) + relative_kinetic_energy) / m;
+  // The merged domain: the mass-weighted mean shape, scaled to the two domains' total area.
+  const real_t sx = w1 * pt.domain_stretch_x(keep) + w2 * pt.domain_stretch_x(gone);
+  const real_t sy = w1 * pt.domain_stretch_y(keep) + w2 * pt.domain_stretch_y(gone);
+  const real_t area = pt.domain_stretch_x(keep) * pt.domain_stretch_y(keep) +
+                      pt.domain_stretch_x(gone) * pt.domain_stretch_y(gone);
+  const real_t scale = square_root(area / (sx * sy));
+
+  pt.position_x(keep) = w1 * pt.position_x(keep) + w2 * pt.position_x(gone);
+  pt.position_y(keep) = w1 * pt.position_y(keep) + w2 * pt.position_y(gone);
+  pt.velocity_x(keep) = w1 * pt.velocity_x(keep) + w2 * pt.velocity_x(gone);
+  pt.velocity_y(keep) = w1 * pt.velocity_y(keep) + w2 * pt.velocity_y(gone);
+  pt.grid_velocity_x(keep) = w1 * pt.grid_velocity_x(keep) + w2 * pt.grid_velocity_x(gone);
+  pt.grid_velocity_y(keep) = w1 * pt.grid_velocity_y(keep) + w2 * pt.grid_velocity_y(gone);
+  pt.artificial_viscosity(keep) = w1 * pt.artificial_viscosity(keep) + w2 * pt.artificial_viscosity(gone);
+  pt.mass(keep) = m;
+  pt.density(keep) = m / volume;
+  pt.specific_energy(keep) = energy;
+  pt.pressure(keep) = perfect_gas_pressure(gamma, m / volume, energy);
+  pt.domain_stretch_x(keep) = scale * sx;
+  pt.domain_stretch_y(keep) = scale * sy;
+  pt.mass(gone) = 0;
+}
+
+IndexView to_device_indices(const char* label, const std::vector<index_t>& host) {
+  IndexView device(std::string(label), host.size());
+  const auto mirror = Kokkos::create_mirror_view(device);
+  std::copy(host.begin(), host.end(), mirror.data());
+  Kokkos::deep_copy(device, mirror);
+  return device;
+}
+
+}  // namespace
+
+ParticleMerging::ParticleMerging(const CaseConfig& config, const GridGeometry& geometry)
+    : enabled_(config.numerics.merge_particles),
+      initial_volume_(geometry.spacing_x * geometry.spacing_y /
+                      (config.particles.per_cell_x * config.particles.per_cell_y)),
+      gamma_(config.physics.gamma) {}
+
+index_t ParticleMerging::merge(ParticleState& particles) const {
+  if (!enabled_) return 0;
+  const ParticleState pt = particles;
+  const real_t initial_volume = initial_volume_;
+  const IndexView candidates = select_indices(
+      "merge_candidates", 0, pt.count,
+      KOKKOS_LAMBDA(const index_t p) { return may_merge(pt.id(p), pt.mass(p) / pt.density(p), initial_volume); });
+  const index_t num_candidates = static_cast<index_t>(candidates.extent(0));
+  if (num_candidates < 2) return 0;
+
+  // The pairs, on the host: the candidates in (cell, id) order, consecutive ones of a cell paired.
+  // There are few candidates (tiny particles only), so the copies are small.
+  IndexView candidate_cell("merge_candidate_cell", num_candidates);
+  ParticleIdView candidate_id("merge_candidate_id", num_candidates);
+  Kokkos::parallel_for(
+      "merge_candidate_keys", Kokkos::RangePolicy<ExecutionSpace>(0, num_candidates), KOKKOS_LAMBDA(const index_t k) {
+        candidate_cell(k) = pt.cell(candidates(k));
+        candidate_id(k) = pt.id(candidates(k));
+      });
+  const auto cell = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), candidate_cell);
+  const auto id = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), candidate_id);
+  const auto index = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), candidates);
+  std::vector<index_t> order(static_cast<size_t>(num_candidates));
+  std::iota(order.begin(), order.end(), index_t(0));
+  std::sort(order.begin(), order.end(), [&](index_t a, index_t b) {
+    return cell(a) != cell(b) ? cell(a) < cell(b) : id(a) < id(b);
+  });
+  std::vector<index_t> keep, gone;
+  for (size_t k = 0; k + 1 < order.size(); ++k) {
+    if (cell(order[k]) != cell(order[k + 1])) continue;
+    keep.push_back(index(order[k]));
+    gone.push_back(index(order[k + 1]));
+    ++k;
+  }
+  const index_t num_pairs = static_cast<index_t>(keep.size());
+  if (num_pairs == 0) return 0;
+
+  const IndexView keep_device = to_device_indices("merge_keep", keep);
+  const IndexView gone_device = to_device_indices("merge_gone", gone);
+  const real_t gamma = gamma_;
+  Kokkos::parallel_for(
+      "merge_pairs", Kokkos::RangePolicy<ExecutionSpace>(0, num_pairs),
+      KOKKOS_LAMBDA(const index_t k) { merge_pair(pt, keep_device(k), gone_device(k), gamma); });
+
+  // The merged-away particles removed, in increasing index order as the compaction wants.
+  std::sort(gone.begin(), gone.end());
+  const IndexView removed = to_device_indices("merge_removed", gone);
+  const RealView mass = pt.mass;
+  const HoleFilling plan =
+      plan_hole_filling(pt.count, removed, KOKKOS_LAMBDA(const index_t p) { return mass(p) == real_t(0); });
+  particles.for_each_field([&](const auto& field) { fill_holes(field, plan.holes, plan.fillers, plan.count); });
+  particles.count = plan.staying;
+  return num_pairs;
+}
+
+}  // namespace mpmflow

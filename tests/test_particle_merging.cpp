@@ -1,0 +1,166 @@
+// Merging of tiny particles (src/particle_merging.hpp): which particles merge, with whom, and that
+// mass, momentum, total energy and volume are conserved.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <vector>
+
+#include "gas_physics.hpp"
+#include "particle_merging.hpp"
+
+namespace mpmflow {
+namespace {
+
+struct HostParticle {
+  long long id;
+  real_t x, y, vx, vy, mass, density, specific_energy;
+};
+
+// A 4 x 4 grid of unit cells, 2 x 2 particles per cell: a placed particle has volume 1/4, and a
+// split particle (negative id) under 1/16 may merge.
+GridGeometry unit_grid() {
+  GridGeometry g;
+  g.origin_x = 0;
+  g.origin_y = 0;
+  g.spacing_x = 1;
+  g.spacing_y = 1;
+  g.nodes_x = 5;
+  g.nodes_y = 5;
+  return g;
+}
+
+CaseConfig merging_case() {
+  CaseConfig c;
+  c.physics.gamma = 1.4;
+  c.particles.per_cell_x = 2;
+  c.particles.per_cell_y = 2;
+  c.numerics.merge_particles = true;
+  return c;
+}
+
+// view(k) = value(host[k]) for every particle.
+template <class ViewType, class Value>
+void fill(const ViewType& view, const std::vector<HostParticle>& host, const Value& value) {
+  auto h = Kokkos::create_mirror_view(view);
+  for (size_t k = 0; k < host.size(); ++k) h(k) = value(host[k]);
+  Kokkos::deep_copy(view, h);
+}
+
+// The particles, each with the domain of a placed particle halved along both axes (stretch 1/2) and
+// no artificial viscosity.
+ParticleState to_particles(const GridGeometry& g, const std::vector<HostParticle>& host) {
+  ParticleState pt(static_cast<index_t>(host.size()));
+  pt.count = static_cast<index_t>(host.size());
+  fill(pt.id, host, [](const HostParticle& p) { return p.id; });
+  fill(pt.position_x, host, [](const HostParticle& p) { return p.x; });
+  fill(pt.position_y, host, [](const HostParticle& p) { return p.y; });
+  fill(pt.velocity_x, host, [](const HostParticle& p) { return p.vx; });
+  fill(pt.velocity_y, host, [](const HostParticle& p) { return p.vy; });
+  fill(pt.grid_velocity_x, host, [](const HostParticle& p) { return p.vx; });
+  fill(pt.grid_velocity_y, host, [](const HostParticle& p) { return p.vy; });
+  fill(pt.mass, host, [](const HostParticle& p) { return p.mass; });
+  fill(pt.density, host, [](const HostParticle& p) { return p.density; });
+  fill(pt.specific_energy, host, [](const HostParticle& p) { return p.specific_energy; });
+  fill(pt.pressure, host,
+       [](const HostParticle& p) { return perfect_gas_pressure(1.4, p.density, p.specific_energy); });
+  fill(pt.domain_stretch_x, host, [](const HostParticle&) { return 0.5; });
+  fill(pt.domain_stretch_y, host, [](const HostParticle&) { return 0.5; });
+  fill(pt.cell, host, [&](const HostParticle& p) { return g.cell_of(p.x, p.y); });
+  return pt;
+}
+
+struct Totals {
+  double mass = 0, momentum_x = 0, momentum_y = 0, energy = 0, volume = 0;
+};
+
+// Per id: (mass, density, x, y, vx, vy, specific energy, pressure); and the totals.
+std::map<long long, std::vector<double>> by_id(const ParticleState& pt, Totals& totals) {
+  auto h = [](const auto& v) { return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v); };
+  const auto id = h(pt.id);
+  const auto m = h(pt.mass), rho = h(pt.density), x = h(pt.position_x), y = h(pt.position_y);
+  const auto vx = h(pt.velocity_x), vy = h(pt.velocity_y), e = h(pt.specific_energy), p = h(pt.pressure);
+  std::map<long long, std::vector<double>> state;
+  totals = Totals();
+  for (index_t k = 0; k < pt.count; ++k) {
+    state[id(k)] = {m(k), rho(k), x(k), y(k), vx(k), vy(k), e(k), p(k)};
+    totals.mass += m(k);
+    totals.momentum_x += m(k) * vx(k);
+    totals.momentum_y += m(k) * vy(k);
+    totals.energy += m(k) * (e(k) + 0.5 * (vx(k) * vx(k) + vy(k) * vy(k)));
+    totals.volume += m(k) / rho(k);
+  }
+  return state;
+}
+
+// Cell (1, 1): three tiny split particles (ids -7, -3, -12), a placed-size one (-20) and a tiny one
+// never split (30); cell (2, 1): two tiny split ones (-5, -4); cell (0, 0): one alone (-9). Volumes
+// m / rho: tiny ones 1/40 down to 1/100; placed size 1/4.
+std::vector<HostParticle> example() {
+  return {{-7, 1.2, 1.3, 1.0, -0.5, 0.02, 1.0, 2.0},  {-20, 1.5, 1.5, 0.3, 0.1, 0.25, 1.0, 2.5},
+          {-3, 1.7, 1.1, -2.0, 0.5, 0.01, 0.5, 3.0},  {-5, 2.4, 1.6, 0.5, 0.5, 0.015, 1.5, 1.0},
+          {-12, 1.9, 1.8, 0.0, 1.0, 0.025, 1.0, 2.0}, {-9, 0.5, 0.5, 1.0, 1.0, 0.01, 1.0, 1.0},
+          {-4, 2.2, 1.2, 0.0, 0.0, 0.01, 1.0, 1.5},   {30, 1.4, 1.6, 0.0, 0.0, 0.01, 1.0, 1.5}};
+}
+
+TEST(ParticleMerging, TinyParticlesOfACellMergeInIdOrderConservingMassMomentumEnergyAndVolume) {
+  const GridGeometry g = unit_grid();
+  const std::vector<HostParticle> host = example();
+  ParticleState pt = to_particles(g, host);
+  Totals before, after;
+  const auto initial = by_id(pt, before);
+  const ParticleMerging merging(merging_case(), g);
+  EXPECT_EQ(merging.merge(pt), 2);
+  EXPECT_EQ(pt.count, 6);
+  const auto merged = by_id(pt, after);
+  // Cell (1, 1), in id order -12, -7, -3: -12 and -7 merge into -12; -3 (the third), -20 (not tiny)
+  // and 30 (never split) stay. Cell (2, 1): -5 and -4 into -5. -9 has no partner.
+  for (long long id : {-12, -5, -9, -3, -20, 30}) EXPECT_EQ(merged.count(id), 1u) << id;
+  const auto& a = initial.at(-12);
+  const auto& b = initial.at(-7);
+  const auto& c = merged.at(-12);
+  EXPECT_DOUBLE_EQ(c[0], a[0] + b[0]);
+  EXPECT_NEAR(c[1], (a[0] + b[0]) / (a[0] / a[1] + b[0] / b[1]), 1e-14);
+  EXPECT_NEAR(c[2], (a[0] * a[2] + b[0] * b[2]) / (a[0] + b[0]), 1e-14);  // centre of mass
+  EXPECT_NEAR(c[3], (a[0] * a[3] + b[0] * b[3]) / (a[0] + b[0]), 1e-14);
+  EXPECT_NEAR(c[7], perfect_gas_pressure(1.4, c[1], c[6]), 1e-14);
+  // The kinetic energy of the relative motion became heat.
+  EXPECT_GT(c[6], (a[0] * a[6] + b[0] * b[6]) / (a[0] + b[0]) + 1e-3);
+  for (long long id : {-9, -3, -20, 30}) EXPECT_EQ(merged.at(id), initial.at(id)) << id;
+  EXPECT_NEAR(after.mass, before.mass, 1e-15 * before.mass);
+  EXPECT_NEAR(after.momentum_x, before.momentum_x, 1e-15);
+  EXPECT_NEAR(after.momentum_y, before.momentum_y, 1e-15);
+  EXPECT_NEAR(after.energy, before.energy, 1e-15 * before.energy);
+  EXPECT_NEAR(after.volume, before.volume, 1e-15 * before.volume);
+}
+
+TEST(ParticleMerging, TheResultDoesNotDependOnTheParticleOrder) {
+  const GridGeometry g = unit_grid();
+  std::vector<HostParticle> host = example();
+  ParticleState first = to_particles(g, host);
+  std::reverse(host.begin(), host.end());
+  ParticleState second = to_particles(g, host);
+  const ParticleMerging merging(merging_case(), g);
+  merging.merge(first);
+  merging.merge(second);
+  Totals ignored;
+  EXPECT_EQ(by_id(first, ignored), by_id(second, ignored));
+}
+
+TEST(ParticleMerging, OffUnlessTheCaseAsksAndUnsplitOrModeratelyCompressedParticlesNeverMerge) {
+  const GridGeometry g = unit_grid();
+  CaseConfig off = merging_case();
+  off.numerics.merge_particles = false;
+  ParticleState pt = to_particles(g, example());
+  EXPECT_EQ(ParticleMerging(off, g).merge(pt), 0);
+  EXPECT_EQ(pt.count, 8);
+  // Particles never split do not merge, however compressed; split ones at a third of the placed
+  // volume do not either.
+  ParticleState compressed =
+      to_particles(g, {{1, 0.3, 0.3, 0, 0, 0.1, 10.0, 1.0}, {2, 0.6, 0.6, 0, 0, 0.1, 10.0, 1.0},
+                       {-1, 1.3, 0.3, 0, 0, 0.25, 3.0, 1.0}, {-2, 1.6, 0.6, 0, 0, 0.25, 3.0, 1.0}});
+  EXPECT_EQ(ParticleMerging(merging_case(), g).merge(compressed), 0);
+}
+
+}  // namespace
+}  // namespace mpmflow
