@@ -109,7 +109,8 @@ inline GridSlab make_grid_slab(const DomainConfig& domain, index_t cell_begin_x,
 // node mass once per node (on the grid), instead of once per particle and stencil node inside
 // the G2P kernels (the paper's theta functor): ppc^2 fewer divisions.
 struct GridFields {
-  enum StateColumn : int { mass = 0, momentum_x, momentum_y, force_x, force_y, num_state_columns };
+  // pressure_volume: sum_p phi_i P M / rho, with the mass the nodes' sound speed for the time step.
+  enum StateColumn : int { mass = 0, momentum_x, momentum_y, pressure_volume, force_x, force_y, num_state_columns };
   enum RemapColumn : int { remap_momentum_x = 0, remap_momentum_y, num_remap_columns };
   enum PerUnitMassColumn : int {
     velocity_x = 0,    // V-bar: updated momentum / mass (Algorithm 1, step 6)

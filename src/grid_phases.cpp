@@ -1,5 +1,7 @@
 #include "grid_phases.hpp"
 
+#include "gas_physics.hpp"
+
 namespace mpmflow {
 namespace {
 
@@ -13,6 +15,25 @@ KOKKOS_INLINE_FUNCTION real_t per_unit_node_mass(real_t node_mass, real_t mass_t
 void reset_grid(const GridFields& fields) {
   Kokkos::deep_copy(fields.state, real_t(0));
   Kokkos::deep_copy(fields.momentum_remap, real_t(0));
+}
+
+real_t max_node_signal_speed(const GridFields& fields, real_t gamma, real_t mass_threshold) {
+  const NodeFieldsView state = fields.state;
+  real_t fastest = 0;
+  Kokkos::parallel_reduce(
+      "node_signal_speed", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))),
+      KOKKOS_LAMBDA(const index_t i, real_t& local_max) {
+        const real_t m = state(i, GridFields::mass);
+        if (!(m > mass_threshold)) return;
+        const real_t inv_m = real_t(1) / m;
+        // sound_speed(gamma, P, rho) = sqrt(gamma P / rho): here sqrt(gamma (sum phi P V) / (sum phi M)).
+        const real_t speed = signal_speed(state(i, GridFields::momentum_x) * inv_m, state(i, GridFields::momentum_y) * inv_m,
+                                          sound_speed(gamma, state(i, GridFields::pressure_volume), m));
+        // A NaN speed must win (the state is broken): it compares false with everything.
+        if (!(speed <= local_max)) local_max = speed == speed ? speed : largest_real;
+      },
+      Kokkos::Max<real_t>(fastest));
+  return fastest;
 }
 
 void update_grid_momentum(const GridFields& fields, real_t dt, real_t mass_threshold) {
@@ -60,10 +81,15 @@ void copy_columns(const char* label, const NodeFieldsView& from, int from_first,
 }  // namespace
 
 void keep_momentum_and_force_before_conditions(const GridFields& fields) {
-  static_assert(GridFields::force_y == GridFields::momentum_x + 3 && GridFields::raw_force_y == GridFields::raw_momentum_x + 3,
-                "momentum_x .. force_y and their copies are adjacent columns");
-  copy_columns("keep_momentum_and_force", fields.state, GridFields::momentum_x, fields.before_conditions,
-               GridFields::raw_momentum_x, 4);
+  const NodeFieldsView state = fields.state, raw = fields.before_conditions;
+  Kokkos::parallel_for(
+      "keep_momentum_and_force", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))),
+      KOKKOS_LAMBDA(const index_t i) {
+        raw(i, GridFields::raw_momentum_x) = state(i, GridFields::momentum_x);
+        raw(i, GridFields::raw_momentum_y) = state(i, GridFields::momentum_y);
+        raw(i, GridFields::raw_force_x) = state(i, GridFields::force_x);
+        raw(i, GridFields::raw_force_y) = state(i, GridFields::force_y);
+      });
 }
 
 void keep_remap_before_conditions(const GridFields& fields) {

@@ -8,6 +8,15 @@ namespace mpmflow {
 // 2. Zeroes the columns the step's P2Gs accumulate into.
 void reset_grid(const GridFields& fields);
 
+// The largest signal speed |v| + c over the nodes with more mass than `mass_threshold`, from
+// step 3's P2G: v = mv / m and c^2 = gamma sum_p phi P V / sum_p phi M, the mass-weighted mean of
+// the particles' c^2 = gamma P / rho. That is the speed the explicit grid update must resolve: a
+// node's acoustic stiffness over its mass is sum_p phi gamma P V |grad phi|^2 / sum_p phi M, and
+// the particles move with the nodes' velocity. A particle far lighter than its neighbours weighs
+// in its nodes by its mass, not by its own |v| + c (a split particle in a near-vacuum can carry a
+// FLIP velocity and a sound speed 3 times its neighbours').
+real_t max_node_signal_speed(const GridFields& fields, real_t gamma, real_t mass_threshold);
+
 // 5. The momentum equation on the grid, (mv)' = mv + dt f; then, per unit node mass, the
 // velocity V-bar = (mv)' / m and the acceleration A = f / m that step 6 interpolates. Nodes with
 // no more mass than `mass_threshold` count as empty: no velocity, no acceleration.

@@ -7,26 +7,31 @@ namespace mpmflow {
 // Algorithm 1, numbered as the paper numbers its steps. Each phase is timed and is a profiling
 // region (phase_timers.hpp); the kernels are in transfers.cpp and kernels/, the node-by-node
 // phases in grid_phases.cpp, the boundary conditions in boundary_conditions.cpp.
-void mpm_step(const StepState& s, const StepSettings& settings, real_t dt, long step) {
+void project_particles_to_grid(const StepState& s) {
+  PhaseTimers& timers = s.timers;
+  const SlabState& slab = s.slab;
+  const GridFields& grid = s.slab.fields();
+  {  // 2. grid reset
+    auto t = timers.scope(Phase::grid_reset);
+    reset_grid(grid);
+  }
+  {  // 3. m = P2G(M), mv = P2G(M V), f = P2GD((P + Q) M / rho) (and P2G(P M / rho))
+    auto t = timers.scope(Phase::p2g_mass_momentum_force);
+    s.transfers.p2g_mass_momentum_force(s.particles);
+  }
+  {  // ... summed over the slabs sharing a node
+    auto t = timers.scope(Phase::halo_exchange);
+    slab.halo().sum_shared_nodes(grid.state, 0, GridFields::num_state_columns);
+  }
+}
+
+void finish_step(const StepState& s, const StepSettings& settings, real_t dt, long step) {
   PhaseTimers& timers = s.timers;
   const SlabState& slab = s.slab;
   const GridFields& grid = s.slab.fields();
   const ParticleState& particles = s.particles;
   TransferKernels& transfers = s.transfers;
   const real_t mass_threshold = settings.node_mass_threshold;
-
-  {  // 2. grid reset
-    auto t = timers.scope(Phase::grid_reset);
-    reset_grid(grid);
-  }
-  {  // 3. m = P2G(M), mv = P2G(M V), f = P2GD((P + Q) M / rho)
-    auto t = timers.scope(Phase::p2g_mass_momentum_force);
-    transfers.p2g_mass_momentum_force(particles);
-  }
-  {  // ... summed over the slabs sharing a node
-    auto t = timers.scope(Phase::halo_exchange);
-    slab.halo().sum_shared_nodes(grid.state, 0, GridFields::num_state_columns);
-  }
   const bool energy_budget = settings.thermodynamics.energy_consistent;
   {  // 4. boundary conditions on mv and f; obstacles (eqs. 21-22)
     auto t = timers.scope(Phase::boundary_conditions);

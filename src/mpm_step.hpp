@@ -36,8 +36,12 @@ struct StepSettings {
   ThermodynamicConstants thermodynamics;
 };
 
-// Advances the particles and the grid of one slab by dt. `step` numbers the step being taken
-// (1 for the first): it keys recycling's random numbers and the reordering interval.
-void mpm_step(const StepState& state, const StepSettings& settings, real_t dt, long step);
+// A step in two parts. Steps 2-3 (grid reset; P2G of mass, momentum and pressure x volume, P2GD
+// of the force; the sums over the slabs sharing a node) do not depend on dt, and the time step
+// is taken from what they put on the nodes (max_node_signal_speed); then the rest advances the
+// particles and the grid by dt. `step` numbers the step being taken (1 for the first): it keys
+// recycling's random numbers and the reordering interval.
+void project_particles_to_grid(const StepState& state);
+void finish_step(const StepState& state, const StepSettings& settings, real_t dt, long step);
 
 }  // namespace mpmflow

@@ -57,7 +57,8 @@ IndexView to_device_indices(const char* label, const std::vector<index_t>& host)
 }  // namespace
 
 ParticleMerging::ParticleMerging(const CaseConfig& config, const GridGeometry& geometry)
-    : enabled_(config.numerics.merge_particles),
+    // Only split particles merge: without splitting there is nothing to look for.
+    : enabled_(config.numerics.merge_particles && config.numerics.split_particles),
       initial_volume_(geometry.spacing_x * geometry.spacing_y /
                       (config.particles.per_cell_x * config.particles.per_cell_y)),
       gamma_(config.physics.gamma) {}

@@ -4,6 +4,7 @@
 #include <type_traits>
 
 #include "gas_physics.hpp"
+#include "grid_phases.hpp"
 
 namespace mpmflow {
 namespace {
@@ -98,13 +99,31 @@ Solver::MemoryUse Solver::memory_use() const {
   return use;
 }
 
+StepState Solver::step_state() {
+  return {*slab_, particles_, *transfers_, migration_, open_sides_, splitting_, merging_, timers_, step_forces_};
+}
+
+void Solver::prepare_grid() {
+  if (grid_holds_particles_) return;
+  project_particles_to_grid(step_state());
+  grid_holds_particles_ = true;
+}
+
 real_t Solver::stable_time_step() {
+  prepare_grid();
   auto t = timers_.scope(Phase::time_step);
-  const real_t max_speed = max_signal_speed(particles_, config_.physics.gamma);
-  const bool local_invalid = !(max_speed < largest_real);
-  const real_t global_max_speed =
-      static_cast<real_t>(context().max(local_invalid ? double(largest_real) : double(max_speed)));
-  if (!(global_max_speed < largest_real)) report_invalid_particle(local_invalid);
+  const real_t particle_speed = max_signal_speed(particles_, config_.physics.gamma);
+  const bool local_invalid = !(particle_speed < largest_real);
+  const real_t node_speed = max_node_signal_speed(slab_->fields(), config_.physics.gamma, settings_.node_mass_threshold);
+  const real_t max_speed = local_invalid ? largest_real : node_speed;
+  const real_t global_max_speed = static_cast<real_t>(context().max(double(max_speed)));
+  if (!(global_max_speed < largest_real)) {
+    if (context().max(local_invalid ? 1.0 : 0.0) > 0) report_invalid_particle(local_invalid);
+    // Valid particles whose node sums overflow.
+    throw InvalidStateError("invalid state after step " + std::to_string(step_count_) +
+                                ": a node's signal speed is not finite, though every particle's state is",
+                            step_count_, -1, 0, 0);
+  }
   // A gas at rest with zero pressure has no signal speed; any step is then stable.
   return global_max_speed > 0 ? config_.time.cfl * slab().cell_size() / global_max_speed : config_.time.end_time;
 }
@@ -135,8 +154,9 @@ void Solver::report_invalid_particle(bool local_invalid) const {
 
 void Solver::advance(real_t dt) {
   particle_steps_ += particles_.count;
-  mpm_step({*slab_, particles_, *transfers_, migration_, open_sides_, splitting_, merging_, timers_, step_forces_}, settings_, dt,
-           step_count_ + 1);
+  prepare_grid();
+  grid_holds_particles_ = false;  // the step moves the particles
+  finish_step(step_state(), settings_, dt, step_count_ + 1);
   ++step_count_;
   if (!config_.obstacles.empty()) {
     // Summed over the ranks every step, so that every rank holds the same impulse (checkpoints

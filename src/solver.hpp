@@ -40,9 +40,12 @@ class Solver {
   Solver(const Solver&) = delete;
   Solver& operator=(const Solver&) = delete;
 
-  // dt = cfl h / max_p(|v_p| + c_p), h the smaller cell side (paper eq. 29 with cfl = 0.5).
-  // The same pass checks the state: throws InvalidStateError, naming the first bad particle, if
-  // any particle has a NaN or non-positive density or a NaN pressure or velocity.
+  // dt = cfl h / max_i(|v_i| + c_i) over the nodes (paper eq. 29 with cfl = 0.5, h the smaller
+  // cell side), from the step's first P2G, which this runs and the next advance() then uses
+  // (max_node_signal_speed: the paper takes max_p(|v_p| + c_p) over the particles, which a few
+  // light particles with outlying states can set). A pass over the particles checks the state:
+  // throws InvalidStateError, naming the first bad particle, if any particle has a NaN or
+  // non-positive density or a NaN pressure or velocity.
   real_t stable_time_step();
   // The check alone (before an output, so that a bad state is never written as a good one).
   void check_state() { (void)stable_time_step(); }
@@ -87,7 +90,11 @@ class Solver {
   const SlabDecomposition& decomposition() const { return slab_->decomposition(); }
   const GridSlab& slab() const { return slab_->slab(); }
   const ParticleState& particles() const { return particles_; }
-  ParticleState& particles() { return particles_; }
+  // (Changing the particles through it discards the grid stable_time_step prepared.)
+  ParticleState& particles() {
+    grid_holds_particles_ = false;
+    return particles_;
+  }
   PhaseTimers& timers() { return timers_; }
   const PhaseTimers& timers() const { return timers_; }
   // The P2G accumulation in use, after resolving "automatic" for this execution space.
@@ -106,7 +113,10 @@ class Solver {
   long step_count() const { return step_count_; }
   // The particles this rank advanced, summed over the steps taken since this Solver was made.
   long long particle_steps() const { return particle_steps_; }
-  void set_step_count(long steps) { step_count_ = steps; }
+  void set_step_count(long steps) {
+    step_count_ = steps;
+    grid_holds_particles_ = false;
+  }
   real_t node_mass_threshold() const { return settings_.node_mass_threshold; }
   void set_node_mass_threshold(real_t threshold) { settings_.node_mass_threshold = threshold; }
 
@@ -124,6 +134,9 @@ class Solver {
   Solver(const CaseConfig& config, std::unique_ptr<SlabState> slab_state, ParticleState particles);
   // The slab state and the transfers bound to its grid fields, for `decomposition`.
   void build_slab(const SlabDecomposition& decomposition);
+  // The state a step works on, and steps 2-3 of the next step unless the grid holds them already.
+  StepState step_state();
+  void prepare_grid();
   // Throws InvalidStateError on every rank, with the first bad particle of the lowest rank that
   // has one (collective; `local_invalid`: this rank has one).
   [[noreturn]] void report_invalid_particle(bool local_invalid) const;
@@ -143,6 +156,8 @@ class Solver {
   long long particle_steps_ = 0;
   ObstacleForces step_forces_;
   double last_stable_time_step_ = 0;
+  // Whether the grid holds steps 2-3 (project_particles_to_grid) of the particles as they are.
+  bool grid_holds_particles_ = false;
   std::vector<double> obstacle_impulse_;  // since the last take_mean_obstacle_forces
 };
 

@@ -11,14 +11,16 @@ namespace {
 
 // ---- On-the-fly functors of Algorithm 1 (the paper's I, zeta, eta and theta) ------------------
 
-// P2G(I, M), P2G(I, M Vx), P2G(I, M Vy)
-struct MassAndMomentum {
-  static constexpr int num_components = 3;
-  RealView mass, velocity_x, velocity_y;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[3]) const {
+// P2G(I, M), P2G(I, M Vx), P2G(I, M Vy), and P2G(I, P M / rho) for the nodes' sound speed (the
+// time step, node_signal_speed): GridFields::mass .. pressure_volume.
+struct MassMomentumAndPressureVolume {
+  static constexpr int num_components = 4;
+  RealView mass, velocity_x, velocity_y, pressure, density;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[4]) const {
     value[0] = mass(p);
     value[1] = mass(p) * velocity_x(p);
     value[2] = mass(p) * velocity_y(p);
+    value[3] = pressure(p) * mass(p) / density(p);
   }
 };
 
@@ -401,7 +403,8 @@ class Transfers final : public TransferKernels {
     }
     p2g_begin(accumulation_.state(), fields_.state);
     // Fused: the paper's P2G(M), P2G(M V) and P2GD((P + Q) M / rho) in one pass over the particles.
-    const MassAndMomentum mass_and_momentum{pt.mass, pt.velocity_x, pt.velocity_y};
+    const MassMomentumAndPressureVolume mass_and_momentum{pt.mass, pt.velocity_x, pt.velocity_y, pt.pressure,
+                                                          pt.density};
     if (cell_averaged_strain_)
       p2g_and_p2gd("p2g_mass_momentum_force", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
                    accumulation_.state(), GridFields::mass, mass_and_momentum, GridFields::force_x,

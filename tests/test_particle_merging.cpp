@@ -36,6 +36,7 @@ CaseConfig merging_case() {
   c.particles.per_cell_x = 2;
   c.particles.per_cell_y = 2;
   c.numerics.merge_particles = true;
+  c.numerics.split_particles = true;
   return c;
 }
 
@@ -153,6 +154,9 @@ TEST(ParticleMerging, OffUnlessTheCaseAsksAndUnsplitOrModeratelyCompressedPartic
   off.numerics.merge_particles = false;
   ParticleState pt = to_particles(g, example());
   EXPECT_EQ(ParticleMerging(off, g).merge(pt), 0);
+  CaseConfig unsplit = merging_case();
+  unsplit.numerics.split_particles = false;
+  EXPECT_EQ(ParticleMerging(unsplit, g).merge(pt), 0);
   EXPECT_EQ(pt.count, 8);
   // Particles never split do not merge, however compressed; split ones at a third of the placed
   // volume do not either.
