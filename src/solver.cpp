@@ -87,6 +87,7 @@ Solver::~Solver() = default;
 void Solver::build_slab(const SlabDecomposition& decomposition) {
   slab_ = std::make_unique<SlabState>(config_, context(), decomposition);
   transfers_ = make_transfer_kernels(config_, slab_->geometry(), slab_->fields());
+  grid_holds_particles_ = false;  // new, empty node fields
 }
 
 Solver::MemoryUse Solver::memory_use() const {

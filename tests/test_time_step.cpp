@@ -1,0 +1,78 @@
+// The time step from the nodes (Solver::stable_time_step, max_node_signal_speed) and the grid it
+// prepares for the next advance().
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <string>
+
+#include "particles.hpp"
+#include "solver.hpp"
+
+namespace mpmflow {
+namespace {
+
+// cases/sod.json at 100 cells (square cells), no output.
+CaseConfig sod_case() {
+  return load_case_file(std::string(MPMFLOW_SOURCE_DIR) + "/cases/sod.json",
+                        {"domain/y=[0,0.01]", "initial_state/regions/0/y=[0,0.01]", "output/snapshots=0"});
+}
+
+std::unique_ptr<Solver> make_solver(const CaseConfig& config) {
+  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+  return std::make_unique<Solver>(config, slab, create_initial_particles(config, slab));
+}
+
+real_t value_at(const RealView& view, index_t k) {
+  real_t value;
+  Kokkos::deep_copy(value, Kokkos::subview(view, k));
+  return value;
+}
+
+// Particle k given velocity (vx, 0) and its mass scaled by `mass_factor` (its volume with it, as
+// splitting does: the same density and pressure).
+void disturb(ParticleState& pt, index_t k, real_t vx, real_t mass_factor) {
+  auto set = [&](const RealView& field, real_t value) { Kokkos::deep_copy(Kokkos::subview(field, k), value); };
+  set(pt.velocity_x, vx);
+  set(pt.mass, value_at(pt.mass, k) * mass_factor);
+}
+
+TEST(TimeStep, ALightParticleWithAnOutlyingVelocityDoesNotSetItAPlacedOneDoes) {
+  const CaseConfig config = sod_case();
+  const real_t undisturbed = make_solver(config)->stable_time_step();
+  // Gas at rest: sound speeds sqrt(1.4) and sqrt(1.4 * 0.1 / 0.125), so dt = 0.5 h / sqrt(1.4).
+  EXPECT_NEAR(undisturbed, 0.5 * 0.01 / std::sqrt(1.4), 1e-12);
+  auto light = make_solver(config);
+  disturb(light->particles(), 60, 20.0, 1e-3);  // a thousandth of its mass, |v| 20 c
+  auto placed = make_solver(config);
+  disturb(placed->particles(), 60, 20.0, 1.0);
+  // The light one moves its nodes' velocity by about 20 / 3000 (3 particles per cell, 2 cells).
+  EXPECT_GT(light->stable_time_step(), 0.95 * undisturbed);
+  // A placed particle that fast sets it: its nodes move at about a third of its speed.
+  EXPECT_LT(placed->stable_time_step(), 0.25 * undisturbed);
+}
+
+TEST(TimeStep, TheGridItPreparesIsDiscardedWhenTheParticlesChange) {
+  const CaseConfig config = sod_case();
+  auto a = make_solver(config), b = make_solver(config);
+  const real_t dt = a->stable_time_step();  // a's grid now holds its particles as they are...
+  disturb(a->particles(), 60, 2.0, 1.0);   // ... until they change
+  disturb(b->particles(), 60, 2.0, 1.0);
+  a->advance(dt);
+  b->advance(dt);  // b projects its particles in advance()
+  // A second step, in which the pressure the moving particle built up pushes back.
+  a->advance(a->stable_time_step());
+  b->advance(b->stable_time_step());
+  // Stale, a's grid would have moved particle 60 with its old velocity in the first step.
+  ASSERT_EQ(a->particles().count, b->particles().count);
+  for (const RealView ParticleState::*field : {&ParticleState::position_x, &ParticleState::density, &ParticleState::velocity_x}) {
+    const auto fa = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), a->particles().*field);
+    const auto fb = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), b->particles().*field);
+    for (index_t k = 0; k < a->particles().count; ++k) ASSERT_EQ(fa(k), fb(k)) << k;
+  }
+  // The steps saw the disturbance: the particle was slowed by the pressure it built up ahead.
+  EXPECT_LT(value_at(a->particles().velocity_x, 60), 1.99);
+}
+
+}  // namespace
+}  // namespace mpmflow
