@@ -169,14 +169,15 @@ struct NumericsConfig {
   // those are understood.
   bool cell_averaged_strain = false;
   // A particle whose volume has doubled splits in two (particle_splitting.hpp), so that no gap
-  // opens in the gas where it expands strongly (Toro's test 2). Off by default: in the Mach 3
-  // cylinder's wake, split particles in the near-vacuum behind the body carry FLIP velocities and
-  // sound speeds two to three times the unsplit particles' largest and set the time step: 4210
-  // steps instead of 2532 at the default 200 x 100 cells, even with merging (12160 without).
+  // opens in the gas where it expands strongly (Toro's test 2). Off by default: with it the coarse
+  // Mach 3 cylinder (100 x 50 cells, 3 x 3 particles per cell) piles particles against the nose,
+  // compressed to 15-19 times the free stream's density, and its nose pressure comes out 70 %
+  // high instead of 3 % (README, Numerics); at 200 x 100 cells it is as good and as fast as without.
   bool split_particles = false;
   // Two tiny particles of a cell (split particles compressed again to under a quarter of a placed
   // particle's volume) merge into one (particle_merging.hpp). On by default: it acts only on split
-  // particles, and with splitting it cuts the Mach 3 cylinder's steps from 12160 to 4210 (200 x 100).
+  // particles, and with splitting it cuts the Mach 3 cylinder's steps from 12160 to 4210 (200 x 100,
+  // with the particles' time step of then).
   bool merge_particles = true;
 };
 

@@ -3,7 +3,7 @@
 # the exact solution: total energy conserved within 1 % at t = 1, the energy balance closing to
 # round-off in the closed box, the shock radius within 2 % of R(1) = 0.75 (+1.2 % at this
 # resolution, -0.5 % at 120^2 and -1.3 % at 240^2 cells) and the same within 2 % in every direction. The
-# paper's energy update must fail the energy bound (it loses 18 %): the check can fail.
+# paper's energy update must fail the energy bound (it loses 17 %): the check can fail.
 # Usage: sedov_blast.sh MPMFLOW_BINARY SOURCE_DIR WORK_DIR
 set -euo pipefail
 binary=$1 source_dir=$2 work_dir=$3
