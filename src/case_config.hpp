@@ -169,9 +169,9 @@ struct NumericsConfig {
   // those are understood.
   bool cell_averaged_strain = false;
   // A particle whose volume has doubled splits in two (particle_splitting.hpp), so that no gap
-  // opens in the gas where it expands strongly (Toro's test 2). Off by default: with it the coarse
-  // Mach 3 cylinder (100 x 50 cells, 3 x 3 particles per cell) piles particles against the nose,
-  // compressed to 15-19 times the free stream's density, and its nose pressure comes out 70 %
+  // opens in the gas where it expands strongly (Toro's test 2). Off by default: with it more
+  // particles pile up squeezed against the front of the coarse Mach 3 cylinder (100 x 50 cells,
+  // 3 x 3 particles per cell; 45 instead of 20-30 at t = 3), and its nose pressure comes out 70 %
   // high instead of 3 % (README, Numerics); at 200 x 100 cells it is as good and as fast as without.
   bool split_particles = false;
   // Two tiny particles of a cell (split particles compressed again to under a quarter of a placed
