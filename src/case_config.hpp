@@ -163,10 +163,8 @@ struct NumericsConfig {
   // free Mach 3 stream, 100 x 50 cells: density scatter 12 % -> 1.6 %, pressure 17 % -> 2.3 %) and
   // sharpens Sod, but smears smooth rarefactions (Toro's test 2: density L1 0.020 -> 0.030 at 100
   // cells), lets the particles' density drift low downstream (-1.5 % after 4 lengths; mean
-  // pressure at a subsonic far field 0.86 instead of 0.91), and with particle splitting collapses
-  // the time step in the Mach 3 cylinder's wake (particles split again and again and expand alone
-  // to densities of 1e-4: 24000 steps instead of 1400 at 100 x 50 cells). Off by default until
-  // those are understood.
+  // pressure at a subsonic far field 0.86 instead of 0.91). Off by default until those are
+  // understood.
   bool cell_averaged_strain = false;
   // A particle whose volume has doubled splits in two (particle_splitting.hpp), so that no gap
   // opens in the gas where it expands strongly (Toro's test 2). Off by default: with it more
