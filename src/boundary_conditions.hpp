@@ -135,32 +135,28 @@ KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::move(index_t p, real_t dt, const
     y = 2 * domain.y_max - y;
     if (pt.velocity_y(p) > 0) pt.velocity_y(p) = 0;
   }
-  // Open sides: whatever is still outside has left the domain through one of them.
+  // Open sides: whatever is still outside has left the domain through one of them, and stays
+  // where it went (no obstacle, no clamp).
   bool hit = false;
-  if (domain.outside(x, y)) {
-    pt.position_x(p) = x;
-    pt.position_y(p) = y;
-    const real_t kinetic_after = pt.velocity_x(p) * pt.velocity_x(p) + pt.velocity_y(p) * pt.velocity_y(p);
-    stopped = 0.5 * double(pt.mass(p)) * double(kinetic_before - kinetic_after);
-    return hit;
-  }
-  if (has_obstacles && cell_near_obstacle(grid.cell_of(x, y, /*include_ghosts=*/true))) {
-    const SignedDistance sd = obstacles(x, y);
-    if (sd.distance < 0) {
-      x += (surface_offset - sd.distance) * sd.normal_x;
-      y += (surface_offset - sd.distance) * sd.normal_y;
-      const real_t vn = pt.velocity_x(p) * sd.normal_x + pt.velocity_y(p) * sd.normal_y;
-      if (vn < 0) {
-        pt.velocity_x(p) -= vn * sd.normal_x;
-        pt.velocity_y(p) -= vn * sd.normal_y;
-        impulse_x = pt.mass(p) * vn * sd.normal_x;  // into the obstacle
-        impulse_y = pt.mass(p) * vn * sd.normal_y;
-        obstacle = sd.obstacle;
-        hit = true;
+  if (!domain.outside(x, y)) {
+    if (has_obstacles && cell_near_obstacle(grid.cell_of(x, y, /*include_ghosts=*/true))) {
+      const SignedDistance sd = obstacles(x, y);
+      if (sd.distance < 0) {
+        x += (surface_offset - sd.distance) * sd.normal_x;
+        y += (surface_offset - sd.distance) * sd.normal_y;
+        const real_t vn = pt.velocity_x(p) * sd.normal_x + pt.velocity_y(p) * sd.normal_y;
+        if (vn < 0) {
+          pt.velocity_x(p) -= vn * sd.normal_x;
+          pt.velocity_y(p) -= vn * sd.normal_y;
+          impulse_x = pt.mass(p) * vn * sd.normal_x;  // into the obstacle
+          impulse_y = pt.mass(p) * vn * sd.normal_y;
+          obstacle = sd.obstacle;
+          hit = true;
+        }
       }
     }
+    domain.clamp(x, y);  // an obstacle touching a side, a mirror
   }
-  domain.clamp(x, y);  // an obstacle touching a side, a mirror
   pt.position_x(p) = x;
   pt.position_y(p) = y;
   const real_t kinetic_after = pt.velocity_x(p) * pt.velocity_x(p) + pt.velocity_y(p) * pt.velocity_y(p);
