@@ -129,12 +129,11 @@ void reorder_particles_by_cell(const ParticleState& particles, index_t num_cells
   particles.for_each_field([&](const auto& field) { order.apply(field); });
 }
 
-real_t max_signal_speed(const ParticleState& particles, real_t gamma) {
+index_t count_invalid_gas_states(const ParticleState& particles, real_t gamma) {
   const auto vx = particles.velocity_x, vy = particles.velocity_y, p = particles.pressure, rho = particles.density;
-  return max_over_particles(
-      "max_signal_speed", particles.count, KOKKOS_LAMBDA(const index_t k) {
-        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k)));
-        return is_valid_gas_state(rho(k), p(k), speed) ? speed : largest_real;  // no valid speed is this large
+  return count_particles(
+      "invalid_gas_states", particles.count, KOKKOS_LAMBDA(const index_t k) {
+        return !is_valid_gas_state(rho(k), p(k), signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k))));
       });
 }
 

@@ -74,13 +74,13 @@ void update_cell_map(const GridGeometry& geometry, const ParticleState& particle
 // same order on any thread count), so that particles close in space are close in memory.
 void reorder_particles_by_cell(const ParticleState& particles, index_t num_cells);
 
-// The fastest signal |v| + c over the particles, for the time step; largest_real when a particle
-// has an invalid gas state (is_valid_gas_state), and 0 without particles.
-real_t max_signal_speed(const ParticleState& particles, real_t gamma);
+// The number of particles with an invalid gas state (is_valid_gas_state: a NaN or non-positive
+// density, a NaN pressure, or a signal speed |v| + c that is not finite); the time step's check.
+index_t count_invalid_gas_states(const ParticleState& particles, real_t gamma);
 // The lowest index of a particle with an invalid gas state or position; particles.count if none.
 index_t first_invalid_particle(const ParticleState& particles, real_t gamma);
-// The index of the particle with the largest signal speed |v| + c (the one that sets the time
-// step); -1 without particles.
+// The index of the particle with the largest signal speed |v| + c (the time step is set by the
+// nodes, which it usually dominates when the step collapses); -1 without particles.
 index_t fastest_particle(const ParticleState& particles, real_t gamma);
 
 }  // namespace mpmflow

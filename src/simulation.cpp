@@ -411,8 +411,9 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
       throw CollectiveError(msg.str());
     }
     // A step size that collapses (a blow-up in the making, or a case whose speeds are absurd:
-    // a pressure of 1e300) would run forever: stop, naming the particle that sets it. The stable
-    // step is the same on every rank, and so is the decision.
+    // a pressure of 1e300) would run forever: stop, naming the fastest particle (the nodes that set
+    // the step are those it dominates, as a rule). The stable step is the same on every rank, and
+    // so is the decision.
     const double stable_dt = solver.last_stable_time_step();
     if (first_stable_dt == 0) first_stable_dt = stable_dt;
     const double steps_left = (end_time - t) / stable_dt;
