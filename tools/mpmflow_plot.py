@@ -410,6 +410,20 @@ def plot_sod(args):
     print(target)
 
 
+def breaks_bound(label, value, bound, show, lower=False):
+    """Whether `value` breaks the bound given by a --max-* (or, with `lower`, a --min-*) option:
+    False when the option was not given, True for NaN. Prints "FAIL: <label> <value> > <bound>"
+    (or "<") with both written by `show` when it does. The subcommands exit 1 if any check fails."""
+    if bound is None or (value >= bound if lower else value <= bound):
+        return False
+    print(f"FAIL: {label} {show(value)} {'<' if lower else '>'} {show(bound)}")
+    return True
+
+
+def percent(digits):
+    return lambda fraction: f"{100 * fraction:.{digits}f}%"
+
+
 def billig_standoff(mach, radius):
     """Billig (1967): shock stand-off of a cylinder, Delta / R = 0.386 exp(4.67 / M^2)."""
     return radius * 0.386 * math.exp(4.67 / mach**2)
@@ -480,14 +494,9 @@ def bow_shock(args):
     print(f"median of the last {len(standoffs)} outputs:")
     print(f"  stand-off distance {standoff:.4f}  (Billig {expected_standoff:.4f}, error {100 * standoff_error:.1f}%)")
     print(f"  nose pressure      {pitot:.3f}  (Rayleigh pitot {expected_pitot:.3f}, error {100 * pitot_error:.1f}%)")
-    failed = False
-    if args.max_standoff_error is not None and standoff_error > args.max_standoff_error:
-        print(f"FAIL: stand-off error {100 * standoff_error:.1f}% > {100 * args.max_standoff_error:.1f}%")
-        failed = True
-    if args.max_pitot_error is not None and pitot_error > args.max_pitot_error:
-        print(f"FAIL: nose pressure error {100 * pitot_error:.1f}% > {100 * args.max_pitot_error:.1f}%")
-        failed = True
-    return 1 if failed else 0
+    failed = [breaks_bound("stand-off error", standoff_error, args.max_standoff_error, percent(1)),
+              breaks_bound("nose pressure error", pitot_error, args.max_pitot_error, percent(1))]
+    return 1 if any(failed) else 0
 
 
 def region(args):
@@ -514,9 +523,7 @@ def region(args):
             continue
         error = abs(measured - expected) / expected
         print(f"  {label} against {expected}: error {100 * error:.2f}%")
-        if max_error is not None and error > max_error:
-            print(f"FAIL: {label} error {100 * error:.2f}% > {100 * max_error:.2f}%")
-            failed = True
+        failed = breaks_bound(f"{label} error", error, max_error, percent(2)) or failed
     return 1 if failed else 0
 
 
@@ -533,10 +540,7 @@ def mass_balance(args):
         print(f"t = {float(row['time']):8.4f}: mass {mass:.10g}, in {entered:.10g}, out {left:.10g}, "
               f"residual {residual:.2e}")
     print(f"largest residual (mass - mass(0) - in + out) / mass(0): {worst:.2e}")
-    if args.max_residual is not None and worst > args.max_residual:
-        print(f"FAIL: mass balance residual {worst:.2e} > {args.max_residual:.2e}")
-        return 1
-    return 0
+    return 1 if breaks_bound("mass balance residual", worst, args.max_residual, lambda v: f"{v:.2e}") else 0
 
 
 def riemann_error(args):
@@ -577,14 +581,9 @@ def riemann_error(args):
     vacuum = float(np.sum(count < 0.5) * dx) / h
     print(f"{s.case} t = {s.time:g}, {domain['cells_x']} cells: density L1 (gaps as vacuum) {l1:.5f}; "
           f"widest gap between particles {gap:.2f} cells; x covered by no particle {vacuum:.2f} cells")
-    failed = False
-    if args.max_l1 is not None and not l1 <= args.max_l1:
-        print(f"FAIL: density L1 {l1:.5f} > {args.max_l1}")
-        failed = True
-    if args.max_gap is not None and not gap <= args.max_gap:
-        print(f"FAIL: a gap of {gap:.2f} cells > {args.max_gap}")
-        failed = True
-    return 1 if failed else 0
+    failed = [breaks_bound("density L1", l1, args.max_l1, lambda v: f"{v:.5f}"),
+              breaks_bound("widest gap", gap, args.max_gap, lambda v: f"{v:.2f} cells")]
+    return 1 if any(failed) else 0
 
 
 def energy_budget(row, first):
@@ -616,10 +615,7 @@ def energy_balance(args):
               f"boundary work {b['boundary_work']:+.4e}, stopped {b['stopped']:.4e}, residual {b['residual']:.2e}")
     print("largest residual (change - in + out - boundary work + stopped) / total energy(0): "
           f"{worst:.2e}")
-    if args.max_residual is not None and not worst <= args.max_residual:
-        print(f"FAIL: energy balance residual {worst:.2e} > {args.max_residual:.2e}")
-        return 1
-    return 0
+    return 1 if breaks_bound("energy balance residual", worst, args.max_residual, lambda v: f"{v:.2e}") else 0
 
 
 def read_diagnostics(output_dir):
@@ -661,14 +657,9 @@ def forces(args):
     ax.set_title(f"obstacle {args.obstacle}: mean force between outputs")
     target = write_figure(fig, ax, args.out, f"obstacle{args.obstacle}_coefficients.png")
     print(target)
-    failed = False
-    if args.min_drag is not None and not mean_drag >= args.min_drag:
-        print(f"FAIL: drag coefficient {mean_drag:.4f} < {args.min_drag}")
-        failed = True
-    if args.max_drag is not None and not mean_drag <= args.max_drag:
-        print(f"FAIL: drag coefficient {mean_drag:.4f} > {args.max_drag}")
-        failed = True
-    return 1 if failed else 0
+    failed = [breaks_bound("drag coefficient", mean_drag, args.min_drag, lambda v: f"{v:.4f}", lower=True),
+              breaks_bound("drag coefficient", mean_drag, args.max_drag, lambda v: f"{v:.4f}")]
+    return 1 if any(failed) else 0
 
 
 def main():

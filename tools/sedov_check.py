@@ -22,7 +22,7 @@ import numpy as np
 
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from mpmflow_plot import energy_budget, snapshot_files  # noqa: E402  (the one definition of each)
+from mpmflow_plot import breaks_bound, energy_budget, snapshot_files  # noqa: E402  (the one definition of each)
 
 
 def main():
@@ -91,18 +91,11 @@ def main():
           f" (spread {100 * anisotropy:.2f} %)")
     print(f"peak density by direction " + " ".join(f"{x:.2f}" for x in peaks) + " (exact 6)")
 
-    failed = []
-    if args.max_energy_change is not None and abs(energy_change) > args.max_energy_change:
-        failed.append(f"energy change {energy_change:.4g} beyond {args.max_energy_change}")
-    if args.max_balance_residual is not None and not abs(residual) <= args.max_balance_residual:
-        failed.append(f"energy balance residual {residual:.3g} beyond {args.max_balance_residual}")
-    if args.max_radius_error is not None and abs(radius_error) > args.max_radius_error:
-        failed.append(f"radius error {radius_error:.4g} beyond {args.max_radius_error}")
-    if args.max_anisotropy is not None and anisotropy > args.max_anisotropy:
-        failed.append(f"radius spread {anisotropy:.4g} beyond {args.max_anisotropy}")
-    for message in failed:
-        print("FAILED:", message)
-    return 1 if failed else 0
+    failed = [breaks_bound("energy change", abs(energy_change), args.max_energy_change, lambda v: f"{v:.4g}"),
+              breaks_bound("energy balance residual", abs(residual), args.max_balance_residual, lambda v: f"{v:.3g}"),
+              breaks_bound("radius error", abs(radius_error), args.max_radius_error, lambda v: f"{v:.4g}"),
+              breaks_bound("radius spread", anisotropy, args.max_anisotropy, lambda v: f"{v:.4g}")]
+    return 1 if any(failed) else 0
 
 
 if __name__ == "__main__":
