@@ -39,12 +39,25 @@ struct SeparableStencil {
   KOKKOS_INLINE_FUNCTION real_t grad_y(int k) const { return wx[k % K] * gy[k / K]; }
 };
 
+// The grid as the shape policies use it: its geometry and the reciprocals of its spacings,
+// computed once (a division per particle and kernel costs more than the rest of a linear stencil,
+// and the compiler cannot hoist it: the kernels' stores might alias the captured spacing).
+struct StencilGrid {
+  GridGeometry geometry;
+  real_t inv_spacing_x = 1, inv_spacing_y = 1;
+  StencilGrid() = default;
+  explicit StencilGrid(const GridGeometry& g)
+      : geometry(g), inv_spacing_x(real_t(1) / g.spacing_x), inv_spacing_y(real_t(1) / g.spacing_y) {}
+};
+
 // Bilinear basis in the particle's cell. Node order: (i,j), (i+1,j), (i,j+1), (i+1,j+1).
-KOKKOS_INLINE_FUNCTION SeparableStencil<2> q1_stencil(const GridGeometry& grid, index_t cell, real_t x, real_t y) {
+KOKKOS_INLINE_FUNCTION SeparableStencil<2> q1_stencil(const StencilGrid& stencil_grid, index_t cell, real_t x,
+                                                      real_t y) {
+  const GridGeometry& grid = stencil_grid.geometry;
   const index_t ci = cell % grid.cells_x();
   const index_t cj = cell / grid.cells_x();
-  const real_t inv_hx = real_t(1) / grid.spacing_x;
-  const real_t inv_hy = real_t(1) / grid.spacing_y;
+  const real_t inv_hx = stencil_grid.inv_spacing_x;
+  const real_t inv_hy = stencil_grid.inv_spacing_y;
   // Local coordinates in [0, 1] within the cell.
   const real_t xi = (x - grid.node_x(ci)) * inv_hx;
   const real_t eta = (y - grid.node_y(cj)) * inv_hy;
@@ -123,12 +136,13 @@ KOKKOS_INLINE_FUNCTION index_t nearest_node(real_t offset, real_t& xi) {
 // The 3 x 3 nodes around the node nearest to a particle at (x, y) in `cell`, weights not yet set;
 // xi and eta are the particle's position relative to that node in cell widths, in [-1/2, 1/2].
 // The grid's ghost layer holds the outer nodes for particles in boundary cells.
-KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<3> centred_stencil(const GridGeometry& grid, index_t cell, real_t x,
-                                                                real_t y, real_t& xi, real_t& eta) {
+KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<3> centred_stencil(const StencilGrid& stencil_grid, index_t cell,
+                                                                real_t x, real_t y, real_t& xi, real_t& eta) {
+  const GridGeometry& grid = stencil_grid.geometry;
   const index_t ci = cell % grid.cells_x();
   const index_t cj = cell / grid.cells_x();
-  const index_t ni = ci + nearest_node((x - grid.node_x(ci)) * (real_t(1) / grid.spacing_x), xi);
-  const index_t nj = cj + nearest_node((y - grid.node_y(cj)) * (real_t(1) / grid.spacing_y), eta);
+  const index_t ni = ci + nearest_node((x - grid.node_x(ci)) * stencil_grid.inv_spacing_x, xi);
+  const index_t nj = cj + nearest_node((y - grid.node_y(cj)) * stencil_grid.inv_spacing_y, eta);
   SeparableStencil<3> s;
   s.first_node = grid.node_index(ni - 1, nj - 1);
   s.row_stride = grid.nodes_x;
@@ -154,8 +168,10 @@ struct LinearShape {
   static constexpr int stencil_size = 4;
   // Cells this far apart along an axis share no node (the stencil spans 2 node lines).
   static constexpr int colour_period = 2;
-  GridGeometry grid;
-  KOKKOS_INLINE_FUNCTION SeparableStencil<2> operator()(index_t /*particle*/, index_t cell, real_t x, real_t y) const {
+  StencilGrid grid;
+  LinearShape() = default;
+  explicit LinearShape(const GridGeometry& g) : grid(g) {}
+  KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<2> operator()(index_t /*particle*/, index_t cell, real_t x, real_t y) const {
     return q1_stencil(grid, cell, x, y);
   }
 };
@@ -164,24 +180,33 @@ struct GimpShape {
   static constexpr int stencil_size = 9;
   // A particle of cell ci reaches node lines ci - 1 .. ci + 2: cells 4 apart share no node.
   static constexpr int colour_period = 4;
-  GridGeometry grid;
-  real_t initial_half_length_x;  // the particle's half-size at stretch 1
-  real_t initial_half_length_y;
+  StencilGrid grid;
+  // The particle's half-size at stretch 1, in cell widths along x and y.
+  real_t initial_half_length_x = 0, initial_half_length_y = 0;
   RealView stretch_x;  // per particle: current length / initial length along x and y
   RealView stretch_y;
 
-  // Half-size along one axis in cell widths: the stretched initial size, kept within
-  // [1e-3, 1/2] so the domain never reaches past the 3-node stencil.
-  KOKKOS_INLINE_FUNCTION static real_t half_length_in_cells(real_t initial, real_t stretch, real_t spacing) {
-    return clamp_real(initial * stretch / spacing, real_t(1e-3), real_t(0.5));
+  GimpShape() = default;
+  // initial_half_length_x, _y: the particle's half-size at stretch 1, in lengths.
+  GimpShape(const GridGeometry& g, real_t initial_half_length_x_, real_t initial_half_length_y_,
+            const RealView& stretch_x_, const RealView& stretch_y_)
+      : grid(g),
+        initial_half_length_x(initial_half_length_x_ / g.spacing_x),
+        initial_half_length_y(initial_half_length_y_ / g.spacing_y),
+        stretch_x(stretch_x_),
+        stretch_y(stretch_y_) {}
+
+  // Half-size along one axis in cell widths: the stretched initial size (in cell widths), kept
+  // within [1e-3, 1/2] so the domain never reaches past the 3-node stencil.
+  KOKKOS_INLINE_FUNCTION static real_t half_length_in_cells(real_t initial_in_cells, real_t stretch) {
+    return clamp_real(initial_in_cells * stretch, real_t(1e-3), real_t(0.5));
   }
 
   KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<3> operator()(index_t p, index_t cell, real_t x, real_t y) const {
-    const real_t inv_hx = real_t(1) / grid.spacing_x, inv_hy = real_t(1) / grid.spacing_y;
     real_t xi, eta;
     SeparableStencil<3> s = centred_stencil(grid, cell, x, y, xi, eta);
-    gimp_axis_weights(xi, half_length_in_cells(initial_half_length_x, stretch_x(p), grid.spacing_x), inv_hx, s.wx, s.gx);
-    gimp_axis_weights(eta, half_length_in_cells(initial_half_length_y, stretch_y(p), grid.spacing_y), inv_hy, s.wy, s.gy);
+    gimp_axis_weights(xi, half_length_in_cells(initial_half_length_x, stretch_x(p)), grid.inv_spacing_x, s.wx, s.gx);
+    gimp_axis_weights(eta, half_length_in_cells(initial_half_length_y, stretch_y(p)), grid.inv_spacing_y, s.wy, s.gy);
     return s;
   }
 };
@@ -190,13 +215,15 @@ struct BSplineShape {
   static constexpr int stencil_size = 9;
   // The same 3 x 3 stencil as GIMP's: cells 4 apart share no node.
   static constexpr int colour_period = 4;
-  GridGeometry grid;
+  StencilGrid grid;
+  BSplineShape() = default;
+  explicit BSplineShape(const GridGeometry& g) : grid(g) {}
   KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<3> operator()(index_t /*particle*/, index_t cell, real_t x,
                                                              real_t y) const {
     real_t xi, eta;
     SeparableStencil<3> s = centred_stencil(grid, cell, x, y, xi, eta);
-    bspline_axis_weights(xi, real_t(1) / grid.spacing_x, s.wx, s.gx);
-    bspline_axis_weights(eta, real_t(1) / grid.spacing_y, s.wy, s.gy);
+    bspline_axis_weights(xi, grid.inv_spacing_x, s.wx, s.gx);
+    bspline_axis_weights(eta, grid.inv_spacing_y, s.wy, s.gy);
     return s;
   }
 };

@@ -177,7 +177,7 @@ void p2c(const char* label, const IndexView& particle_cell, const Traversal& tra
 
 // value_c = sum_i F_c(node i) phi_i over stencil s: the interpolation of G2P.
 template <class StencilType, class NodeFunctor, int N>
-KOKKOS_INLINE_FUNCTION void interpolate(const StencilType& s, const NodeFunctor& node_functor, real_t (&value)[N]) {
+KOKKOS_FORCEINLINE_FUNCTION void interpolate(const StencilType& s, const NodeFunctor& node_functor, real_t (&value)[N]) {
   constexpr int K = StencilType::width;
   for (int c = 0; c < N; ++c) value[c] = 0;
   for (int b = 0; b < K; ++b) {
@@ -194,7 +194,7 @@ KOKKOS_INLINE_FUNCTION void interpolate(const StencilType& s, const NodeFunctor&
 
 // node(i, first + c) += value_c phi_i over stencil s: the accumulation of P2G.
 template <class StencilType, class Access, int N>
-KOKKOS_INLINE_FUNCTION void accumulate(const StencilType& s, const Access& access, int first_component,
+KOKKOS_FORCEINLINE_FUNCTION void accumulate(const StencilType& s, const Access& access, int first_component,
                                        const real_t (&value)[N]) {
   constexpr int K = StencilType::width;
   for (int b = 0; b < K; ++b) {
@@ -217,7 +217,7 @@ struct P2GBody {
   int first_component;
   ParticleFunctor functor;
   template <class StencilType>
-  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
     real_t value[N];
     functor(p, value);
     accumulate(s, scatter.access(), first_component, value);
@@ -232,7 +232,7 @@ struct P2GDBody {
   int first_component;
   ParticleFunctor functor;
   template <class StencilType>
-  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
     constexpr int K = StencilType::width;
     real_t vector[N][2];
     functor(p, vector);
@@ -261,7 +261,7 @@ struct P2GAndP2GDBody {
   int first_vector_component;
   VectorFunctor vector_functor;
   template <class StencilType>
-  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
     constexpr int K = StencilType::width;
     real_t value[NV];
     real_t vector[ND][2];
@@ -292,7 +292,7 @@ struct G2PBody {
   NodeFunctor node_functor;
   ParticleSink sink;
   template <class StencilType>
-  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
     real_t value[N];
     interpolate(s, node_functor, value);
     sink(p, value);
@@ -309,7 +309,7 @@ struct G2PThenP2GBody {
   Access scatter;
   int first_component;
   template <class StencilType>
-  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
     real_t value[N];
     interpolate(s, node_functor, value);
     real_t out[M];
@@ -325,7 +325,7 @@ struct G2PDBody {
   NodeFunctor node_functor;
   ParticleSink sink;
   template <class StencilType>
-  KOKKOS_INLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
     constexpr int K = StencilType::width;
     real_t gradient[N][2];
     for (int c = 0; c < N; ++c) gradient[c][0] = gradient[c][1] = 0;

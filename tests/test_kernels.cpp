@@ -175,11 +175,11 @@ struct Coloured {};
 // colour by colour for D = Coloured.
 template <class D, bool derivative, class Shape, class Functor>
 NodeFieldsView run_p2g(const Shape& shape, const DeviceParticles& d, int columns, const Functor& f) {
-  NodeFieldsView fields("fields", shape.grid.num_nodes(), columns);
+  NodeFieldsView fields("fields", shape.grid.geometry.num_nodes(), columns);
   if constexpr (std::is_same<D, Coloured>::value) {
     CellOrder order;
-    order.build(d.where.cell, d.count, shape.grid.num_cells());
-    const ColouredCells cells{order.cell_offset(), order.particle(), shape.grid.cells_x(), shape.grid.cells_y()};
+    order.build(d.where.cell, d.count, shape.grid.geometry.num_cells());
+    const ColouredCells cells{order.cell_offset(), order.particle(), shape.grid.geometry.cells_x(), shape.grid.geometry.cells_y()};
     DirectNodeAccess direct{fields};
     if constexpr (derivative) p2gd("test_p2gd", shape, d.where, cells, direct, 0, f);
     else p2g("test_p2g", shape, d.where, cells, direct, 0, f);
@@ -229,7 +229,7 @@ bool stencil_is_inner(const Shape& shape, int margin, index_t p, index_t cell, r
   const auto s = shape(p, cell, x, y);
   for (int a = 0; a < Shape::stencil_size; ++a)
     if (s.weight(a) != 0 &&
-        !is_inner_node(shape.grid, s.node(a) % shape.grid.nodes_x, s.node(a) / shape.grid.nodes_x, margin))
+        !is_inner_node(shape.grid.geometry, s.node(a) % shape.grid.geometry.nodes_x, s.node(a) / shape.grid.geometry.nodes_x, margin))
       return false;
   return true;
 }
@@ -257,7 +257,7 @@ TYPED_TEST(TransferKernels, PartitionOfUnityAndZeroGradientSum) {
 TEST(ShapeFunctions, NodalInterpolationProperty) {
   const GridGeometry g = test_grid();
   // At a cell's corner node the weight of that node is 1 and the others 0.
-  const SeparableStencil<2> s = q1_stencil(g, g.cell_of(g.node_x(2), g.node_y(3)), g.node_x(2), g.node_y(3));
+  const SeparableStencil<2> s = q1_stencil(StencilGrid(g), g.cell_of(g.node_x(2), g.node_y(3)), g.node_x(2), g.node_y(3));
   // (GIMP averages the hat over the particle domain, so it is not interpolating: not tested.)
   EXPECT_EQ(s.node(0), g.node_index(2, 3));
   EXPECT_DOUBLE_EQ(s.weight(0), 1.0);
