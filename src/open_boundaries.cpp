@@ -297,20 +297,24 @@ void OpenBoundaries::restore(const std::vector<double>& entry_distance, const Bo
 
 void OpenBoundaries::exchange(ParticleState& pt, const SlabState& slab_state, real_t dt, long step) {
   if (!any_open_) return;
-  // The particles that have left.
-  const OutsideDomain outside{DomainBox(slab_state.slab()), pt.position_x, pt.position_y};
-  const IndexView leaving = select_indices("open_side_leaving", 0, pt.count, outside);
-  const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
-  fluxes_.left += totals_of_particles(pt, leaving, 0, num_leaving);
-  if (supply_ == ParticleSupply::recycle) {
-    recycle(pt, slab_state, leaving, dt, step);
-    return;
-  }
-  // Open: they are removed ...
-  if (num_leaving > 0) {
-    const HoleFilling plan = plan_hole_filling(pt.count, leaving, outside);
-    pt.for_each_field([&](const auto& field) { fill_holes(field, plan.holes, plan.fillers, plan.count); });
-    pt.count = plan.staying;
+  {
+    // The particles that have left. (In a scope of its own: `outside` holds the position Views,
+    // which would otherwise stay allocated beside their grown copies when the gas entering below
+    // makes the particle Views grow.)
+    const OutsideDomain outside{DomainBox(slab_state.slab()), pt.position_x, pt.position_y};
+    const IndexView leaving = select_indices("open_side_leaving", 0, pt.count, outside);
+    const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
+    fluxes_.left += totals_of_particles(pt, leaving, 0, num_leaving);
+    if (supply_ == ParticleSupply::recycle) {
+      recycle(pt, slab_state, leaving, dt, step);
+      return;
+    }
+    // Open: they are removed ...
+    if (num_leaving > 0) {
+      const HoleFilling plan = plan_hole_filling(pt.count, leaving, outside);
+      pt.for_each_field([&](const auto& field) { fill_holes(field, plan.holes, plan.fillers, plan.count); });
+      pt.count = plan.staying;
+    }
   }
   // ... and the free stream enters.
   enter(pt, slab_state, dt);
