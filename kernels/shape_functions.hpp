@@ -45,17 +45,100 @@ struct SeparableStencil {
 struct StencilGrid {
   GridGeometry geometry;
   real_t inv_spacing_x = 1, inv_spacing_y = 1;
+  double inv_cells_x = 1;
   StencilGrid() = default;
   explicit StencilGrid(const GridGeometry& g)
-      : geometry(g), inv_spacing_x(real_t(1) / g.spacing_x), inv_spacing_y(real_t(1) / g.spacing_y) {}
+      : geometry(g),
+        inv_spacing_x(real_t(1) / g.spacing_x),
+        inv_spacing_y(real_t(1) / g.spacing_y),
+        inv_cells_x(1.0 / g.cells_x()) {}
+
+  // The column ci and row cj of a cell, cell = ci + cells_x cj, by a multiplication rather than an
+  // integer division (which has no vector instruction, and would keep the batched stencils of
+  // the CPU path scalar). Exact: (cell + 1/2) / cells_x = cj + (ci + 1/2) / cells_x lies at least
+  // 1/(2 cells_x) from an integer, while the two roundings move it by under cell / cells_x 2^-52,
+  // far less for any index_t cell.
+  KOKKOS_FORCEINLINE_FUNCTION void column_and_row(index_t cell, index_t& ci, index_t& cj) const {
+    cj = static_cast<index_t>((cell + 0.5) * inv_cells_x);
+    ci = cell - cj * geometry.cells_x();
+  }
 };
+
+// The stencils of a batch of L particles, structure of arrays: the CPU path computes them
+// together, one particle per vector lane (for_each_particle_stencil), and the kernels take them
+// one at a time (stencil(l)).
+template <int K, int L>
+struct StencilBatch {
+  index_t first_node[L];
+  real_t wx[K][L], gx[K][L];
+  real_t wy[K][L], gy[K][L];
+  KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<K> stencil(int l, index_t row_stride) const {
+    SeparableStencil<K> s;
+    s.first_node = first_node[l];
+    s.row_stride = row_stride;
+    for (int a = 0; a < K; ++a) {
+      s.wx[a] = wx[a][l];
+      s.gx[a] = gx[a][l];
+      s.wy[a] = wy[a][l];
+      s.gy[a] = gy[a][l];
+    }
+    return s;
+  }
+};
+
+// The particles of a batch: consecutive ones from `first`, or those of a list.
+struct ConsecutiveParticles {
+  index_t first;
+  KOKKOS_FORCEINLINE_FUNCTION index_t operator()(int lane) const { return first + lane; }
+};
+struct ListedParticles {
+  const index_t* list;
+  KOKKOS_FORCEINLINE_FUNCTION index_t operator()(int lane) const { return list[lane]; }
+};
+
+// dest[l] = source[particle(l)] for the lanes of a batch (past count, the last particle's). A
+// scalar loop of its own, before the vectorised one: vectorised, indirect loads become vector
+// gathers, which cost more than scalar loads on CPUs (seen on AMD Zen 4: they took most of the
+// sorted P2G's time).
+template <int L, class Particles, class T>
+KOKKOS_FORCEINLINE_FUNCTION void load_lanes(const Particles& particle, int count, const T* source, T (&dest)[L]) {
+  for (int l = 0; l < L; ++l) {
+    if (l == count) break;  // (a loop with an exit GCC does not vectorise)
+    dest[l] = source[particle(l)];
+  }
+  for (int l = count; l < L; ++l) dest[l] = dest[count - 1];
+}
+
+// The positions and cells of a batch's particles, one per lane.
+template <int L>
+struct BatchPositions {
+  index_t cell[L];
+  real_t x[L], y[L];
+  template <class Particles>
+  KOKKOS_FORCEINLINE_FUNCTION BatchPositions(const Particles& particle, int count, const index_t* cell_of,
+                                             const real_t* x_of, const real_t* y_of) {
+    load_lanes(particle, count, cell_of, cell);
+    load_lanes(particle, count, x_of, x);
+    load_lanes(particle, count, y_of, y);
+  }
+};
+
+// 1D linear weights of a cell's two nodes for a particle at xi = (x_p - x_i) / h in [0, 1], and their
+// derivatives d/dx_p.
+KOKKOS_FORCEINLINE_FUNCTION void linear_axis_weights(real_t xi, real_t inv_h, real_t& weight_0, real_t& weight_1,
+                                                     real_t& gradient_0, real_t& gradient_1) {
+  weight_0 = 1 - xi;
+  weight_1 = xi;
+  gradient_0 = -inv_h;
+  gradient_1 = inv_h;
+}
 
 // Bilinear basis in the particle's cell. Node order: (i,j), (i+1,j), (i,j+1), (i+1,j+1).
 KOKKOS_INLINE_FUNCTION SeparableStencil<2> q1_stencil(const StencilGrid& stencil_grid, index_t cell, real_t x,
                                                       real_t y) {
   const GridGeometry& grid = stencil_grid.geometry;
-  const index_t ci = cell % grid.cells_x();
-  const index_t cj = cell / grid.cells_x();
+  index_t ci, cj;
+  stencil_grid.column_and_row(cell, ci, cj);
   const real_t inv_hx = stencil_grid.inv_spacing_x;
   const real_t inv_hy = stencil_grid.inv_spacing_y;
   // Local coordinates in [0, 1] within the cell.
@@ -64,14 +147,8 @@ KOKKOS_INLINE_FUNCTION SeparableStencil<2> q1_stencil(const StencilGrid& stencil
   SeparableStencil<2> s;
   s.first_node = grid.node_index(ci, cj);
   s.row_stride = grid.nodes_x;
-  s.wx[0] = 1 - xi;
-  s.wx[1] = xi;
-  s.gx[0] = -inv_hx;
-  s.gx[1] = inv_hx;
-  s.wy[0] = 1 - eta;
-  s.wy[1] = eta;
-  s.gy[0] = -inv_hy;
-  s.gy[1] = inv_hy;
+  linear_axis_weights(xi, inv_hx, s.wx[0], s.wx[1], s.gx[0], s.gx[1]);
+  linear_axis_weights(eta, inv_hy, s.wy[0], s.wy[1], s.gy[0], s.gy[1]);
   return s;
 }
 
@@ -109,20 +186,27 @@ KOKKOS_INLINE_FUNCTION void gimp_weight_1d(real_t d, real_t h, real_t l, real_t&
 // lies within [-1, 1]: `up` and `down` are the lengths of it above and below x_n. The outer hat
 // halves are linear there, so each outer weight is the integral of a linear function over the
 // part of the domain on its side, and the middle weight is what the partition of unity leaves.
-KOKKOS_FORCEINLINE_FUNCTION void gimp_axis_weights(real_t xi, real_t lambda, real_t inv_h, real_t (&weight)[3],
-                                              real_t (&gradient)[3]) {
+KOKKOS_FORCEINLINE_FUNCTION void gimp_axis_weights(real_t xi, real_t lambda, real_t inv_h, real_t& weight_0,
+                                                   real_t& weight_1, real_t& weight_2, real_t& gradient_0,
+                                                   real_t& gradient_1, real_t& gradient_2) {
   const real_t width = 2 * lambda;
   const real_t inv_2width = real_t(1) / (2 * width);  // 1 / (4 lambda)
   const real_t up = clamp_real(xi + lambda, 0, width);
   const real_t down = clamp_real(lambda - xi, 0, width);
   const real_t beyond_up = max_real(xi - lambda, 0);  // domain wholly above x_n
   const real_t beyond_down = max_real(-xi - lambda, 0);
-  weight[0] = down * down * inv_2width + beyond_down;
-  weight[2] = up * up * inv_2width + beyond_up;
-  weight[1] = 1 - weight[0] - weight[2];
-  gradient[0] = -2 * down * inv_2width * inv_h;
-  gradient[2] = 2 * up * inv_2width * inv_h;
-  gradient[1] = -(gradient[0] + gradient[2]);
+  weight_0 = down * down * inv_2width + beyond_down;
+  weight_2 = up * up * inv_2width + beyond_up;
+  weight_1 = 1 - weight_0 - weight_2;
+  gradient_0 = -2 * down * inv_2width * inv_h;
+  gradient_2 = 2 * up * inv_2width * inv_h;
+  gradient_1 = -(gradient_0 + gradient_2);
+}
+// The same into arrays. (The scalar form is what the batched CPU path vectorises: GCC keeps a
+// loop with arrays local to its body scalar.)
+KOKKOS_FORCEINLINE_FUNCTION void gimp_axis_weights(real_t xi, real_t lambda, real_t inv_h, real_t (&weight)[3],
+                                                   real_t (&gradient)[3]) {
+  gimp_axis_weights(xi, lambda, inv_h, weight[0], weight[1], weight[2], gradient[0], gradient[1], gradient[2]);
 }
 
 // Along one axis: the nearest node n to a particle at `offset` cell widths past the node of its
@@ -133,46 +217,77 @@ KOKKOS_INLINE_FUNCTION index_t nearest_node(real_t offset, real_t& xi) {
   return upper ? 1 : 0;
 }
 
-// The 3 x 3 nodes around the node nearest to a particle at (x, y) in `cell`, weights not yet set;
-// xi and eta are the particle's position relative to that node in cell widths, in [-1/2, 1/2].
-// The grid's ghost layer holds the outer nodes for particles in boundary cells.
-KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<3> centred_stencil(const StencilGrid& stencil_grid, index_t cell,
-                                                                real_t x, real_t y, real_t& xi, real_t& eta) {
+// The first node of the 3 x 3 nodes around the node nearest to a particle at (x, y) in `cell`;
+// xi and eta are the particle's position relative to that nearest node in cell widths, in
+// [-1/2, 1/2]. The grid's ghost layer holds the outer nodes for particles in boundary cells.
+KOKKOS_FORCEINLINE_FUNCTION index_t centred_first_node(const StencilGrid& stencil_grid, index_t cell, real_t x, real_t y,
+                                                       real_t& xi, real_t& eta) {
   const GridGeometry& grid = stencil_grid.geometry;
-  const index_t ci = cell % grid.cells_x();
-  const index_t cj = cell / grid.cells_x();
+  index_t ci, cj;
+  stencil_grid.column_and_row(cell, ci, cj);
   const index_t ni = ci + nearest_node((x - grid.node_x(ci)) * stencil_grid.inv_spacing_x, xi);
   const index_t nj = cj + nearest_node((y - grid.node_y(cj)) * stencil_grid.inv_spacing_y, eta);
+  return grid.node_index(ni - 1, nj - 1);
+}
+
+// The same as a stencil, weights not yet set.
+KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<3> centred_stencil(const StencilGrid& stencil_grid, index_t cell,
+                                                                real_t x, real_t y, real_t& xi, real_t& eta) {
   SeparableStencil<3> s;
-  s.first_node = grid.node_index(ni - 1, nj - 1);
-  s.row_stride = grid.nodes_x;
+  s.first_node = centred_first_node(stencil_grid, cell, x, y, xi, eta);
+  s.row_stride = stencil_grid.geometry.nodes_x;
   return s;
 }
 
 // 1D quadratic B-spline weights of the nodes n - 1, n, n + 1 for a particle at xi = (x_p - x_n) / h
 // in [-1/2, 1/2], and their derivatives d/dx_p. (GIMP's gimp_axis_weights at lambda = 1/2 gives the
 // same: the hat function averaged over a whole cell is the quadratic B-spline.)
-KOKKOS_FORCEINLINE_FUNCTION void bspline_axis_weights(real_t xi, real_t inv_h, real_t (&weight)[3],
-                                                 real_t (&gradient)[3]) {
+KOKKOS_FORCEINLINE_FUNCTION void bspline_axis_weights(real_t xi, real_t inv_h, real_t& weight_0, real_t& weight_1,
+                                                      real_t& weight_2, real_t& gradient_0, real_t& gradient_1,
+                                                      real_t& gradient_2) {
   const real_t below = real_t(0.5) - xi;
   const real_t above = real_t(0.5) + xi;
-  weight[0] = real_t(0.5) * below * below;
-  weight[1] = real_t(0.75) - xi * xi;
-  weight[2] = real_t(0.5) * above * above;
-  gradient[0] = -below * inv_h;
-  gradient[1] = -2 * xi * inv_h;
-  gradient[2] = above * inv_h;
+  weight_0 = real_t(0.5) * below * below;
+  weight_1 = real_t(0.75) - xi * xi;
+  weight_2 = real_t(0.5) * above * above;
+  gradient_0 = -below * inv_h;
+  gradient_1 = -2 * xi * inv_h;
+  gradient_2 = above * inv_h;
+}
+KOKKOS_FORCEINLINE_FUNCTION void bspline_axis_weights(real_t xi, real_t inv_h, real_t (&weight)[3],
+                                                      real_t (&gradient)[3]) {
+  bspline_axis_weights(xi, inv_h, weight[0], weight[1], weight[2], gradient[0], gradient[1], gradient[2]);
 }
 
 struct LinearShape {
   static constexpr int stencil_size = 4;
   // Cells this far apart along an axis share no node (the stencil spans 2 node lines).
   static constexpr int colour_period = 2;
+  static constexpr int stencil_width = 2;
   StencilGrid grid;
   LinearShape() = default;
   explicit LinearShape(const GridGeometry& g) : grid(g) {}
   KOKKOS_FORCEINLINE_FUNCTION SeparableStencil<2> operator()(index_t /*particle*/, index_t cell, real_t x, real_t y) const {
     return q1_stencil(grid, cell, x, y);
+  }
+  // The stencils of particles particle(0) .. particle(count - 1) (0 < count <= L;
+  // ConsecutiveParticles or ListedParticles), as operator() gives them, into a batch, one particle
+  // per vector lane (host memory; lanes past count repeat the last particle).
+  template <int L, class Particles>
+  KOKKOS_FORCEINLINE_FUNCTION void fill_batch(const Particles& particle, int count, const index_t* cell,
+                                              const real_t* x, const real_t* y, StencilBatch<2, L>& b) const {
+    const StencilGrid g = grid;  // a local copy: the loop's invariants stay in registers
+    const BatchPositions<L> at(particle, count, cell, x, y);
+    MPMFLOW_VECTORISE
+    for (int l = 0; l < L; ++l) {
+      index_t ci, cj;
+      g.column_and_row(at.cell[l], ci, cj);
+      b.first_node[l] = g.geometry.node_index(ci, cj);
+      linear_axis_weights((at.x[l] - g.geometry.node_x(ci)) * g.inv_spacing_x, g.inv_spacing_x, b.wx[0][l],
+                          b.wx[1][l], b.gx[0][l], b.gx[1][l]);
+      linear_axis_weights((at.y[l] - g.geometry.node_y(cj)) * g.inv_spacing_y, g.inv_spacing_y, b.wy[0][l],
+                          b.wy[1][l], b.gy[0][l], b.gy[1][l]);
+    }
   }
 };
 
@@ -180,6 +295,7 @@ struct GimpShape {
   static constexpr int stencil_size = 9;
   // A particle of cell ci reaches node lines ci - 1 .. ci + 2: cells 4 apart share no node.
   static constexpr int colour_period = 4;
+  static constexpr int stencil_width = 3;
   StencilGrid grid;
   // The particle's half-size at stretch 1, in cell widths along x and y.
   real_t initial_half_length_x = 0, initial_half_length_y = 0;
@@ -209,12 +325,33 @@ struct GimpShape {
     gimp_axis_weights(eta, half_length_in_cells(initial_half_length_y, stretch_y(p)), grid.inv_spacing_y, s.wy, s.gy);
     return s;
   }
+  // As LinearShape::fill_batch.
+  template <int L, class Particles>
+  KOKKOS_FORCEINLINE_FUNCTION void fill_batch(const Particles& particle, int count, const index_t* cell,
+                                              const real_t* x, const real_t* y, StencilBatch<3, L>& b) const {
+    const StencilGrid g = grid;
+    const real_t half_x = initial_half_length_x, half_y = initial_half_length_y;
+    const BatchPositions<L> at(particle, count, cell, x, y);
+    real_t sx[L], sy[L];
+    load_lanes(particle, count, stretch_x.data(), sx);
+    load_lanes(particle, count, stretch_y.data(), sy);
+    MPMFLOW_VECTORISE
+    for (int l = 0; l < L; ++l) {
+      real_t xi, eta;
+      b.first_node[l] = centred_first_node(g, at.cell[l], at.x[l], at.y[l], xi, eta);
+      gimp_axis_weights(xi, half_length_in_cells(half_x, sx[l]), g.inv_spacing_x, b.wx[0][l], b.wx[1][l], b.wx[2][l],
+                        b.gx[0][l], b.gx[1][l], b.gx[2][l]);
+      gimp_axis_weights(eta, half_length_in_cells(half_y, sy[l]), g.inv_spacing_y, b.wy[0][l], b.wy[1][l],
+                        b.wy[2][l], b.gy[0][l], b.gy[1][l], b.gy[2][l]);
+    }
+  }
 };
 
 struct BSplineShape {
   static constexpr int stencil_size = 9;
   // The same 3 x 3 stencil as GIMP's: cells 4 apart share no node.
   static constexpr int colour_period = 4;
+  static constexpr int stencil_width = 3;
   StencilGrid grid;
   BSplineShape() = default;
   explicit BSplineShape(const GridGeometry& g) : grid(g) {}
@@ -225,6 +362,22 @@ struct BSplineShape {
     bspline_axis_weights(xi, grid.inv_spacing_x, s.wx, s.gx);
     bspline_axis_weights(eta, grid.inv_spacing_y, s.wy, s.gy);
     return s;
+  }
+  // As LinearShape::fill_batch.
+  template <int L, class Particles>
+  KOKKOS_FORCEINLINE_FUNCTION void fill_batch(const Particles& particle, int count, const index_t* cell,
+                                              const real_t* x, const real_t* y, StencilBatch<3, L>& b) const {
+    const StencilGrid g = grid;
+    const BatchPositions<L> at(particle, count, cell, x, y);
+    MPMFLOW_VECTORISE
+    for (int l = 0; l < L; ++l) {
+      real_t xi, eta;
+      b.first_node[l] = centred_first_node(g, at.cell[l], at.x[l], at.y[l], xi, eta);
+      bspline_axis_weights(xi, g.inv_spacing_x, b.wx[0][l], b.wx[1][l], b.wx[2][l], b.gx[0][l], b.gx[1][l],
+                           b.gx[2][l]);
+      bspline_axis_weights(eta, g.inv_spacing_y, b.wy[0][l], b.wy[1][l], b.wy[2][l], b.gy[0][l], b.gy[1][l],
+                           b.gy[2][l]);
+    }
   }
 };
 

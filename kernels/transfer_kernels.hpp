@@ -17,12 +17,17 @@
 //
 // P2G and P2GD accumulate into columns [first_component, first_component + N) of a (node,
 // component) View in one of two ways, chosen by the arguments' types. No hand-written atomics:
-//  - all particles at once (a particle count) through a Kokkos ScatterView, duplicated or atomic:
-//    the ScatterView decides how concurrent contributions to one node are combined;
-//  - cell colour by cell colour (ColouredCells) straight into the View (DirectNodeAccess): the
-//    cells of one colour are far enough apart that no two touch a common node, so each node is
-//    written by one thread at a time, in an order fixed by the colours and the cell order of the
-//    particles. Bitwise the same result for any thread count.
+//  - all particles at once (a particle count, or ParticleBatches) through a Kokkos ScatterView,
+//    duplicated or atomic: the ScatterView decides how concurrent contributions to one node are
+//    combined;
+//  - tile colour by tile colour (ColouredCells) straight into the View (DirectNodeAccess): the
+//    tiles of cells of one colour are far enough apart that no two touch a common node, so each
+//    node is written by one thread at a time, in an order fixed by the tiles and the cell order of
+//    the particles. Bitwise the same result for any thread count.
+// The traversal also decides how the stencils are computed: a particle count is the reference
+// path, one particle per thread, as the paper's kernels; ParticleBatches and ColouredCells compute
+// the stencils of batches of particles together in vector lanes on CPUs (Shape::fill_batch), the
+// solver's path, tested against the reference.
 #include <type_traits>
 
 #include <Kokkos_ScatterView.hpp>
@@ -77,6 +82,12 @@ struct ColouredCells {
   index_t cells_x = 0, cells_y = 0;
 };
 
+// All particles, for the fast traversal (for_each_particle_stencil below): batched stencils on
+// CPUs. A plain particle count is the reference traversal, one particle at a time.
+struct ParticleBatches {
+  index_t count = 0;
+};
+
 // A (node, component) View written in place: the accumulator of the coloured traversal.
 struct DirectNodeAccess {
   NodeFieldsView target;
@@ -90,6 +101,7 @@ inline void p2g_end(DirectNodeAccess&, const NodeFieldsView&) {}
 
 // Runs body(p, stencil) for every particle p, with its stencil from the shape policy: the one
 // particle loop all four transfer kernels share.
+// The reference traversal: one thread per particle, its stencil from the shape policy.
 template <class Shape, class Body>
 void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
                                index_t num_particles, const Body& body) {
@@ -101,29 +113,87 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
       KOKKOS_LAMBDA(const index_t p) { body(p, shape(p, cell(p), x(p), y(p))); });
 }
 
-// The same, colour by colour: Shape::colour_period^2 colours of cells; within a colour, one thread
-// per cell walks its particles in order. A particle of cell (ci, cj) reaches nodes ci - r + 1 ..
-// ci + r (r = colour_period / 2), so cells colour_period apart share no node.
+// The fast traversal where the particles are in host memory (CPUs): batches of
+// stencil_batch_size consecutive particles, the batch's stencils computed first, one particle per
+// vector lane (Shape::fill_batch), then the body for each particle. Computing the weights is most
+// of a kernel's work, and it stays scalar when it is done particle by particle. The same sums as
+// the reference traversal (tested against it), to round-off. Elsewhere (GPUs) it is the reference
+// traversal.
+constexpr int stencil_batch_size = 32;
+
+template <class Shape, class Body>
+void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
+                               const ParticleBatches& batches, const Body& body) {
+  const index_t num_particles = batches.count;
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
+    const auto x = particles.x;
+    const auto y = particles.y;
+    const auto cell = particles.cell;
+    constexpr int L = stencil_batch_size;
+    const index_t row_stride = shape.grid.geometry.nodes_x;
+    Kokkos::parallel_for(
+        label, Kokkos::RangePolicy<ExecutionSpace>(0, (num_particles + L - 1) / L), KOKKOS_LAMBDA(const index_t k) {
+          const index_t first = k * L;
+          const int count = num_particles - first < L ? static_cast<int>(num_particles - first) : L;
+          StencilBatch<Shape::stencil_width, L> batch;
+          shape.fill_batch(ConsecutiveParticles{first}, count, cell.data(), x.data(), y.data(), batch);
+          for (int l = 0; l < count; ++l) body(first + l, batch.stencil(l, row_stride));
+        });
+  } else {
+    for_each_particle_stencil(label, shape, particles, num_particles, body);
+  }
+}
+
+// The same, tile by tile: the cells are grouped in tiles of colour_tile x colour_tile cells and
+// the tiles in four colours (2 x 2); the tiles of one colour run in parallel, one thread per tile
+// walking its cells row by row and each cell's particles in order. A particle of cell (ci, cj)
+// reaches nodes ci - r + 1 .. ci + r (r = Shape::colour_period / 2), so two tiles of one colour,
+// a tile apart, share no node when the tile is wider than 2 r - 2 cells. Every node's sum so comes
+// in an order fixed by the cells and the particle order alone: the same bits for any thread
+// count. (Tiles rather than single cells coloured colour_period apart: 4 passes over the grid
+// instead of colour_period^2, each thread on a compact piece of it.) On CPUs the stencils of a
+// row's particles are computed in batches, as for ParticleBatches.
+constexpr int colour_tile = 8;
+
 template <class Shape, class Body>
 void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
                                const ColouredCells& cells, const Body& body) {
+  static_assert(colour_tile > Shape::colour_period - 2, "tiles of one colour must not share a node");
   const auto x = particles.x;
   const auto y = particles.y;
   const auto cell = particles.cell;
-  constexpr int period = Shape::colour_period;
-  for (int colour = 0; colour < period * period; ++colour) {
-    const index_t a = colour % period, b = colour / period;
-    const index_t columns = (cells.cells_x - a + period - 1) / period;
-    const index_t rows = (cells.cells_y - b + period - 1) / period;
+  const index_t row_stride = shape.grid.geometry.nodes_x;
+  const index_t cells_x = cells.cells_x, cells_y = cells.cells_y;
+  const index_t tiles_x = (cells_x + colour_tile - 1) / colour_tile, tiles_y = (cells_y + colour_tile - 1) / colour_tile;
+  const IndexView offset = cells.cell_offset, order = cells.particle;
+  for (int colour = 0; colour < 4; ++colour) {
+    const index_t a = colour % 2, b = colour / 2;
+    const index_t columns = (tiles_x - a + 1) / 2, rows = (tiles_y - b + 1) / 2;
     if (columns <= 0 || rows <= 0) continue;
-    const IndexView offset = cells.cell_offset, order = cells.particle;
-    const index_t cells_x = cells.cells_x;
     Kokkos::parallel_for(
         label, Kokkos::RangePolicy<ExecutionSpace>(0, columns * rows), KOKKOS_LAMBDA(const index_t k) {
-          const index_t c = (a + period * (k % columns)) + cells_x * (b + period * (k / columns));
-          for (index_t s = offset(c); s < offset(c + 1); ++s) {
-            const index_t p = order(s);
-            body(p, shape(p, cell(p), x(p), y(p)));
+          const index_t tile_i = a + 2 * (k % columns), tile_j = b + 2 * (k / columns);
+          const index_t ci_end = (tile_i + 1) * colour_tile < cells_x ? (tile_i + 1) * colour_tile : cells_x;
+          const index_t cj_end = (tile_j + 1) * colour_tile < cells_y ? (tile_j + 1) * colour_tile : cells_y;
+          // The tile's cells row by row: the particles of one row of the tile are consecutive in
+          // the cell order.
+          for (index_t cj = tile_j * colour_tile; cj < cj_end; ++cj) {
+            const index_t row_begin = offset(tile_i * colour_tile + cells_x * cj);
+            const index_t row_end = offset(ci_end + cells_x * cj);
+            if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
+              constexpr int L = stencil_batch_size;
+              for (index_t s = row_begin; s < row_end; s += L) {
+                const int count = row_end - s < L ? static_cast<int>(row_end - s) : L;
+                StencilBatch<Shape::stencil_width, L> batch;
+                shape.fill_batch(ListedParticles{order.data() + s}, count, cell.data(), x.data(), y.data(), batch);
+                for (int l = 0; l < count; ++l) body(order(s + l), batch.stencil(l, row_stride));
+              }
+            } else {
+              for (index_t s = row_begin; s < row_end; ++s) {
+                const index_t p = order(s);
+                body(p, shape(p, cell(p), x(p), y(p)));
+              }
+            }
           }
         });
   }
@@ -135,6 +205,10 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 template <class Body>
 void for_each_particle(const char* label, index_t num_particles, const Body& body) {
   Kokkos::parallel_for(label, Kokkos::RangePolicy<ExecutionSpace>(0, num_particles), body);
+}
+template <class Body>
+void for_each_particle(const char* label, const ParticleBatches& batches, const Body& body) {
+  for_each_particle(label, batches.count, body);
 }
 template <class Body>
 void for_each_particle(const char* label, const ColouredCells& cells, const Body& body) {
@@ -380,11 +454,10 @@ void p2g_and_p2gd(const char* label, const Shape& shape, const ParticleLocations
 }
 
 // G2P (eq. 17): value_c(p) = sum_i F_c(node i) phi_i(X_p), handed to sink(p, value).
-template <class Shape, class NodeFunctor, class ParticleSink>
-void g2p(const char* label, const Shape& shape, const ParticleLocations& particles, index_t num_particles,
+template <class Shape, class NodeFunctor, class ParticleSink, class Traversal>
+void g2p(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& traversal,
          const NodeFunctor& node_functor, const ParticleSink& sink) {
-  for_each_particle_stencil(label, shape, particles, num_particles,
-                            G2PBody<NodeFunctor, ParticleSink>{node_functor, sink});
+  for_each_particle_stencil(label, shape, particles, traversal, G2PBody<NodeFunctor, ParticleSink>{node_functor, sink});
 }
 
 // G2P then P2G in one pass (Algorithm 1, steps 6-8 fused): for each particle, value_c(p) =

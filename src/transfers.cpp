@@ -318,7 +318,8 @@ class ScatterAccumulation {
   ScatterAccumulation(const GridFields& fields, const NodeFieldsView& cell_sums)
       : state_(fields.state), remap_(fields.momentum_remap), cells_(cell_sums) {}
   void prepare(const ParticleState&, const GridGeometry&) {}
-  index_t traversal(const ParticleState& particles) const { return particles.count; }
+  // Batched stencils on CPUs (for_each_particle_stencil).
+  ParticleBatches traversal(const ParticleState& particles) const { return ParticleBatches{particles.count}; }
   Access& state() { return state_; }
   Access& remap() { return remap_; }
   Access& cells() { return cells_; }
@@ -340,7 +341,7 @@ class ScatterAccumulation {
 };
 
 // Sorted and coloured: the particles grouped by cell (CellOrder, rebuilt every step since the
-// particles move), then P2G colour by colour straight into the node fields. No copies, no
+// particles move), then P2G tile colour by tile colour straight into the node fields. No copies, no
 // atomics, and the same sums in the same order for any thread count: bitwise reproducible.
 class ColouredAccumulation {
  public:
@@ -426,7 +427,7 @@ class Transfers final : public TransferKernels {
   }
 
   void g2p_velocity_acceleration(const ParticleState& pt, real_t dt) override {
-    g2p("g2p_velocity_acceleration", current_shape(shape_, pt), pt.locations(), pt.count,
+    g2p("g2p_velocity_acceleration", current_shape(shape_, pt), pt.locations(), ParticleBatches{pt.count},
         NodeColumns<4>{fields_.per_unit_mass, GridFields::velocity_x}, accelerate(pt, dt));
   }
 
@@ -457,7 +458,7 @@ class Transfers final : public TransferKernels {
                                                           k.energy_consistent});
       return;
     }
-    g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), pt.count,
+    g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), ParticleBatches{pt.count},
          NodeColumns<2>{fields_.per_unit_mass, GridFields::remap_velocity_x},
          UpdateThermodynamics{pt.density, pt.specific_energy, pt.pressure, pt.artificial_viscosity,
                               pt.domain_stretch_x, pt.domain_stretch_y, dt, k.gamma, k.cell_size,

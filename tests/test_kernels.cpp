@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <numeric>
 #include <random>
 #include <string>
 #include <type_traits>
@@ -168,8 +170,21 @@ struct StoreGradient {
   }
 };
 
+using Dup = Kokkos::Experimental::ScatterDuplicated;
+using Atomic = Kokkos::Experimental::ScatterNonDuplicated;
+
 // The sorted, coloured P2G (no ScatterView): the third accumulation mode under test.
 struct Coloured {};
+// The duplicated ScatterView with the fast traversal (ParticleBatches: batched stencils on CPUs);
+// the other ScatterView modes take the reference traversal, one particle at a time.
+struct Batched {};
+
+// The traversal of all particles for mode D.
+template <class D>
+auto all_of(const DeviceParticles& d) {
+  if constexpr (std::is_same<D, Batched>::value) return ParticleBatches{d.count};
+  else return d.count;
+}
 
 // Runs P2G of `functor` into a fresh (nodes x columns) View with a ScatterView of mode D, or
 // colour by colour for D = Coloured.
@@ -185,10 +200,11 @@ NodeFieldsView run_p2g(const Shape& shape, const DeviceParticles& d, int columns
     else p2g("test_p2g", shape, d.where, cells, direct, 0, f);
     return fields;
   } else {
-    NodeScatterView<D> scatter(fields);
+    using Duplication = std::conditional_t<std::is_same<D, Batched>::value, Dup, D>;
+    NodeScatterView<Duplication> scatter(fields);
     p2g_begin(scatter, fields);
-    if constexpr (derivative) p2gd("test_p2gd", shape, d.where, d.count, scatter, 0, f);
-    else p2g("test_p2g", shape, d.where, d.count, scatter, 0, f);
+    if constexpr (derivative) p2gd("test_p2gd", shape, d.where, all_of<D>(d), scatter, 0, f);
+    else p2g("test_p2g", shape, d.where, all_of<D>(d), scatter, 0, f);
     p2g_end(scatter, fields);
     return fields;
   }
@@ -202,17 +218,20 @@ struct Config {
 };
 template <class C>
 class TransferKernels : public ::testing::Test {};
-using Dup = Kokkos::Experimental::ScatterDuplicated;
-using Atomic = Kokkos::Experimental::ScatterNonDuplicated;
-using Configs = ::testing::Types<Config<Dup, MakeLinear>, Config<Atomic, MakeLinear>, Config<Coloured, MakeLinear>,
-                                 Config<Dup, MakeGimp>, Config<Atomic, MakeGimp>, Config<Coloured, MakeGimp>,
-                                 Config<Dup, MakeBSpline>, Config<Atomic, MakeBSpline>, Config<Coloured, MakeBSpline>>;
+using Configs =
+    ::testing::Types<Config<Dup, MakeLinear>, Config<Atomic, MakeLinear>, Config<Coloured, MakeLinear>,
+                     Config<Batched, MakeLinear>, Config<Dup, MakeGimp>, Config<Atomic, MakeGimp>,
+                     Config<Coloured, MakeGimp>, Config<Batched, MakeGimp>, Config<Dup, MakeBSpline>,
+                     Config<Atomic, MakeBSpline>, Config<Coloured, MakeBSpline>, Config<Batched, MakeBSpline>>;
 struct ConfigNames {
   template <class C>
   static std::string GetName(int) {
-    const bool duplicated = std::is_same<typename C::Duplication, Dup>::value;
-    const bool coloured = std::is_same<typename C::Duplication, Coloured>::value;
-    return std::string(C::MakeShape::name) + (coloured ? "_sorted" : (duplicated ? "_duplicated" : "_atomic"));
+    using D = typename C::Duplication;
+    const char* mode = std::is_same<D, Dup>::value        ? "_duplicated"
+                       : std::is_same<D, Coloured>::value ? "_sorted"
+                       : std::is_same<D, Batched>::value  ? "_batched"
+                                                          : "_atomic";
+    return std::string(C::MakeShape::name) + mode;
   }
 };
 TYPED_TEST_SUITE(TransferKernels, Configs, ConfigNames);
@@ -251,6 +270,85 @@ TYPED_TEST(TransferKernels, PartitionOfUnityAndZeroGradientSum) {
     EXPECT_NEAR(sum, 1.0, 1e-14);
     EXPECT_NEAR(gx, 0.0, 1e-12);
     EXPECT_NEAR(gy, 0.0, 1e-12);
+  }
+}
+
+// The CPU path's batched stencils (Shape::fill_batch) against the shape's own, particle by
+// particle: consecutive particles (ParticleBatches) and listed ones in another order (the sorted
+// P2G's cell order), with a batch left part empty, and GIMP particles of many sizes.
+template <class M>
+class BatchedStencils : public ::testing::Test {};
+using Shapes = ::testing::Types<MakeLinear, MakeGimp, MakeBSpline>;
+struct ShapeNames {
+  template <class M>
+  static std::string GetName(int) {
+    return M::name;
+  }
+};
+TYPED_TEST_SUITE(BatchedStencils, Shapes, ShapeNames);
+
+TYPED_TEST(BatchedStencils, EqualThePerParticleStencils) {
+  if (!std::is_same<MemorySpace, Kokkos::HostSpace>::value) GTEST_SKIP() << "batches are the CPU path";
+  const GridGeometry g = test_grid();
+  const HostParticles p = random_particles(g, 1001, 11);  // not a whole number of batches
+  const DeviceParticles d = to_device(g, p);
+  auto shape = TypeParam::make(g, d.count);
+  if constexpr (std::is_same<decltype(shape), GimpShape>::value) {
+    std::mt19937 rng(12);
+    std::uniform_real_distribution<double> stretch(0.002, 4.0);  // past both clamps of the half-length
+    for (index_t k = 0; k < d.count; ++k) {
+      shape.stretch_x(k) = stretch(rng);
+      shape.stretch_y(k) = stretch(rng);
+    }
+  }
+  std::vector<index_t> listed(static_cast<size_t>(d.count));
+  std::iota(listed.begin(), listed.end(), 0);
+  std::shuffle(listed.begin(), listed.end(), std::mt19937(13));
+  constexpr int L = stencil_batch_size;
+  constexpr int K = decltype(shape)::stencil_width;
+  int compared = 0;
+  for (index_t first = 0; first < d.count; first += L) {
+    const int count = std::min<index_t>(L, d.count - first);
+    StencilBatch<K, L> consecutive, from_list;
+    shape.fill_batch(ConsecutiveParticles{first}, count, d.where.cell.data(), d.where.x.data(), d.where.y.data(),
+                     consecutive);
+    shape.fill_batch(ListedParticles{listed.data() + first}, count, d.where.cell.data(), d.where.x.data(),
+                     d.where.y.data(), from_list);
+    for (int l = 0; l < count; ++l)
+      for (const auto& [particle, batch] : {std::make_pair(first + l, &consecutive),
+                                            std::make_pair(listed[static_cast<size_t>(first + l)], &from_list)}) {
+        const auto expected = shape(particle, d.where.cell(particle), d.where.x(particle), d.where.y(particle));
+        const auto got = batch->stencil(l, g.nodes_x);
+        ASSERT_EQ(got.first_node, expected.first_node) << "particle " << particle;
+        for (int a = 0; a < K; ++a) {
+          // The same arithmetic, vectorised: equal but for how the compiler contracts it into FMAs.
+          EXPECT_NEAR(got.wx[a], expected.wx[a], 1e-15) << "particle " << particle;
+          EXPECT_NEAR(got.wy[a], expected.wy[a], 1e-15) << "particle " << particle;
+          EXPECT_NEAR(got.gx[a], expected.gx[a], 1e-14 * std::fabs(expected.gx[a]) + 1e-15) << "particle " << particle;
+          EXPECT_NEAR(got.gy[a], expected.gy[a], 1e-14 * std::fabs(expected.gy[a]) + 1e-15) << "particle " << particle;
+        }
+        ++compared;
+      }
+  }
+  EXPECT_EQ(compared, 2 * d.count);
+}
+
+TEST(ShapeFunctions, ColumnAndRowOfACellAreExactForLargeGrids) {
+  // The multiplication that replaces the integer division, at the largest cell indices a grid of
+  // 46340 x 46340 cells (2^31 cells in all) has, and at every cell of a row of a tall one.
+  for (const index_t cells_x : {1, 3, 448, 46340}) {
+    GridGeometry geometry;
+    geometry.nodes_x = cells_x + 1;
+    geometry.nodes_y = 2;
+    const StencilGrid grid(geometry);
+    const index_t last_row = std::numeric_limits<index_t>::max() / cells_x - 1;
+    for (const index_t row : {index_t(0), index_t(1), index_t(777), last_row})
+      for (index_t column = 0; column < cells_x; column += std::max<index_t>(1, cells_x / 97)) {
+        index_t ci = -1, cj = -1;
+        grid.column_and_row(column + cells_x * row, ci, cj);
+        ASSERT_EQ(ci, column) << "cells_x " << cells_x << ", row " << row;
+        ASSERT_EQ(cj, row) << "cells_x " << cells_x << ", column " << column;
+      }
   }
 }
 
@@ -336,8 +434,9 @@ TYPED_TEST(TransferKernels, G2PReproducesLinearNodalFieldAndGradientExactly) {
   Kokkos::deep_copy(nodal, h);
 
   RealView value("value", d.count), grad_x("grad_x", d.count), grad_y("grad_y", d.count);
-  g2p("test_g2p", shape, d.where, d.count, NodeColumn{nodal}, StoreValue{value});
-  g2pd("test_g2pd", shape, d.where, d.count, NodeColumn{nodal}, StoreGradient{grad_x, grad_y});
+  const auto all = all_of<typename TypeParam::Duplication>(d);
+  g2p("test_g2p", shape, d.where, all, NodeColumn{nodal}, StoreValue{value});
+  g2pd("test_g2pd", shape, d.where, all, NodeColumn{nodal}, StoreGradient{grad_x, grad_y});
   auto hv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), value);
   auto hx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.x);
   auto hy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.y);
@@ -421,9 +520,10 @@ TYPED_TEST(TransferKernels, FusedG2PThenP2GEqualsTheTwoKernels) {
     DirectNodeAccess direct{fused};
     g2p_then_p2g("test_fused", shape, d.where, cells, NodeColumn{nodal}, update, direct, 0);
   } else {
-    NodeScatterView<typename TypeParam::Duplication> scatter(fused);
+    using D = typename TypeParam::Duplication;
+    NodeScatterView<std::conditional_t<std::is_same<D, Batched>::value, Dup, D>> scatter(fused);
     p2g_begin(scatter, fused);
-    g2p_then_p2g("test_fused", shape, d.where, d.count, NodeColumn{nodal}, update, scatter, 0);
+    g2p_then_p2g("test_fused", shape, d.where, all_of<D>(d), NodeColumn{nodal}, update, scatter, 0);
     p2g_end(scatter, fused);
   }
 
@@ -477,7 +577,8 @@ TYPED_TEST(TransferKernels, P2GThenG2PReproducesLinearFieldsExactly) {
     }
 
   RealView value("value", d.count);
-  g2p("test_g2p", shape, d.where, d.count, NodeColumnsRatio{fields}, StoreValue{value});
+  g2p("test_g2p", shape, d.where, all_of<typename TypeParam::Duplication>(d), NodeColumnsRatio{fields},
+      StoreValue{value});
   auto hv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), value);
   auto hx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.x);
   auto hy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.y);
