@@ -24,6 +24,15 @@ if(MPMFLOW_ARCH_NATIVE)
   target_compile_options(mpmflow_dependencies INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-march=native>)
 endif()
 
+# --- No errno from the maths library: the solver never reads it, and a sqrt that may set it (a
+# library call on a negative argument) keeps the particle loops from vectorising. The results are
+# the same bits.
+include(CheckCXXCompilerFlag)
+check_cxx_compiler_flag(-fno-math-errno MPMFLOW_COMPILER_HAS_NO_MATH_ERRNO)
+if(MPMFLOW_COMPILER_HAS_NO_MATH_ERRNO)
+  target_compile_options(mpmflow_dependencies INTERFACE $<$<COMPILE_LANGUAGE:CXX>:-fno-math-errno>)
+endif()
+
 # --- Kokkos Kernels (BLAS-1 diagnostics); optional so a minimal build needs Kokkos alone -----
 if(MPMFLOW_KOKKOS_KERNELS_SOURCE_DIR)
   add_subdirectory(${MPMFLOW_KOKKOS_KERNELS_SOURCE_DIR} ${CMAKE_BINARY_DIR}/kokkos-kernels EXCLUDE_FROM_ALL)
