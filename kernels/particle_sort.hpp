@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <string>
+#include <type_traits>
 
 #include "kernels/types.hpp"
 
@@ -24,23 +25,87 @@ void permute_particle_field(const ViewType& view, const IndexView& permutation, 
 }
 
 // Particles grouped by cell, in increasing particle index within each cell: the same grouping
-// for any thread count (the coloured P2G and deterministic reordering depend on it). Kokkos'
-// BinSort places particles in their bins with atomic counters, in an order that depends on thread
-// timing; sorting within bins by the unique key (cell, particle index) makes the result unique.
-// The particles per cell are counted with a ScatterView (integer sums: exact in any order).
+// for any thread count (the coloured P2G and deterministic reordering depend on it).
+//  - In host memory (CPUs): a counting sort over chunks of consecutive particles, one per thread.
+//    Each chunk counts its particles per cell; a cell's particles from chunk t go after those of
+//    the chunks before it; each chunk then places its particles in index order. Three passes over
+//    the cell map, and (threads + 1) counters per cell.
+//  - Elsewhere: Kokkos' BinSort places particles in their bins with atomic counters, in an order
+//    that depends on thread timing; sorting within bins by the unique key (cell, particle index)
+//    makes the result unique. The particles per cell are counted with a ScatterView (integer sums:
+//    exact in any order).
 class CellOrder {
  public:
   using KeyView = Kokkos::View<std::int64_t*, DeviceType>;
+  static constexpr bool counting_sort = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
 
   void build(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
-    if (static_cast<index_t>(keys_.extent(0)) < num_particles) {
-      keys_ = KeyView("cell_order_keys", num_particles);
+    if (static_cast<index_t>(particle_.extent(0)) < num_particles) {
       particle_ = IndexView("cell_order_particle", num_particles);
+      if (!counting_sort) keys_ = KeyView("cell_order_keys", num_particles);
     }
     if (static_cast<index_t>(cell_offset_.extent(0)) != num_cells + 1) {
       cell_offset_ = IndexView("cell_order_offset", num_cells + 1);
-      cell_count_ = IndexView("cell_order_count", num_cells);
+      cell_count_ = IndexView("cell_order_count", counting_sort ? 0 : num_cells);
     }
+    if constexpr (counting_sort) build_by_counting(particle_cell, num_particles, num_cells);
+    else build_by_bin_sort(particle_cell, num_particles, num_cells);
+    num_particles_ = num_particles;
+  }
+
+  // Reorders particle Views into the grouped order (deterministic Algorithm 1 step xii).
+  template <class ViewType>
+  void apply(const ViewType& view) const {
+    permute_particle_field(view, particle_, num_particles_);
+  }
+
+  const IndexView& cell_offset() const { return cell_offset_; }
+  const IndexView& particle() const { return particle_; }
+  size_t bytes() const {
+    return keys_.span() * sizeof(std::int64_t) +
+           (particle_.span() + cell_offset_.span() + cell_count_.span() + chunk_start_.span()) * sizeof(index_t);
+  }
+
+  // The first particle of chunk t of `chunks` over n particles.
+  KOKKOS_INLINE_FUNCTION static index_t chunk_begin(index_t n, index_t chunks, index_t t) {
+    return static_cast<index_t>((static_cast<std::int64_t>(n) * t) / chunks);
+  }
+
+  // (Public for nvcc, which allows device lambdas only in public member functions.)
+  void build_by_counting(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
+    const index_t chunks = ExecutionSpace().concurrency();
+    if (chunk_start_.extent(0) != static_cast<size_t>(num_cells) || chunk_start_.extent(1) != static_cast<size_t>(chunks))
+      chunk_start_ = Kokkos::View<index_t**, Kokkos::LayoutRight, DeviceType>("cell_order_chunk_start", num_cells, chunks);
+    const auto start = chunk_start_;
+    const IndexView particle = particle_, offset = cell_offset_;
+    Kokkos::deep_copy(start, 0);
+    Kokkos::parallel_for(
+        "cell_order_count", Kokkos::RangePolicy<ExecutionSpace>(0, chunks), KOKKOS_LAMBDA(const index_t t) {
+          for (index_t p = chunk_begin(num_particles, chunks, t); p < chunk_begin(num_particles, chunks, t + 1); ++p)
+            ++start(particle_cell(p), t);
+        });
+    // Each cell's first slot (offset) and, per chunk, the slot its first particle of the cell takes.
+    Kokkos::parallel_scan(
+        "cell_order_offsets", Kokkos::RangePolicy<ExecutionSpace>(0, num_cells + 1),
+        KOKKOS_LAMBDA(const index_t c, index_t& running, const bool final) {
+          if (final) offset(c) = running;
+          if (c == num_cells) return;
+          index_t slot = running;
+          for (index_t t = 0; t < chunks; ++t) {
+            const index_t count = start(c, t);
+            if (final) start(c, t) = slot;
+            slot += count;
+          }
+          running = slot;
+        });
+    Kokkos::parallel_for(
+        "cell_order_place", Kokkos::RangePolicy<ExecutionSpace>(0, chunks), KOKKOS_LAMBDA(const index_t t) {
+          for (index_t p = chunk_begin(num_particles, chunks, t); p < chunk_begin(num_particles, chunks, t + 1); ++p)
+            particle(start(particle_cell(p), t)++) = p;
+        });
+  }
+
+  void build_by_bin_sort(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
     const KeyView keys = keys_;
     const IndexView particle = particle_, offset = cell_offset_, count = cell_count_;
     const std::int64_t n = num_particles > 0 ? num_particles : 1;
@@ -73,24 +138,13 @@ class CellOrder {
           if (final) offset(c) = running;
           if (c < num_cells) running += count(c);
         });
-    num_particles_ = num_particles;
-  }
-
-  // Reorders particle Views into the grouped order (deterministic Algorithm 1 step xii).
-  template <class ViewType>
-  void apply(const ViewType& view) const {
-    permute_particle_field(view, particle_, num_particles_);
-  }
-
-  const IndexView& cell_offset() const { return cell_offset_; }
-  const IndexView& particle() const { return particle_; }
-  size_t bytes() const {
-    return keys_.span() * sizeof(std::int64_t) + (particle_.span() + cell_offset_.span() + cell_count_.span()) * sizeof(index_t);
   }
 
  private:
-  Kokkos::View<std::int64_t*, DeviceType> keys_;
+  KeyView keys_;  // (BinSort)
   IndexView particle_, cell_offset_, cell_count_;
+  // (Counting sort) per cell and chunk: its particles of the cell, then the next slot they take.
+  Kokkos::View<index_t**, Kokkos::LayoutRight, DeviceType> chunk_start_;
   index_t num_particles_ = 0;
 };
 

@@ -183,27 +183,31 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
   }
 }
 
-// The same, tile by tile: the cells are grouped in tiles of colour_tile x colour_tile cells and
-// the tiles in four colours (2 x 2); the tiles of one colour run in parallel, one thread per tile
-// walking its cells row by row and each cell's particles in order. A particle of cell (ci, cj)
-// reaches nodes ci - r + 1 .. ci + r (r = Shape::colour_period / 2), so two tiles of one colour,
-// a tile apart, share no node when the tile is wider than 2 r - 2 cells. Every node's sum so comes
-// in an order fixed by the cells and the particle order alone: the same bits for any thread
-// count. (Tiles rather than single cells coloured colour_period apart: 4 passes over the grid
-// instead of colour_period^2, each thread on a compact piece of it.) On CPUs the stencils of a
-// row's particles are computed in batches, as for ParticleBatches.
-constexpr int colour_tile = 8;
+// The same, tile by tile: the cells are grouped in tiles of colour_tile_x x colour_tile_y cells
+// and the tiles in four colours (2 x 2); the tiles of one colour run in parallel, one thread per
+// tile walking its cells row by row and each cell's particles in order. A particle of cell
+// (ci, cj) reaches nodes ci - r + 1 .. ci + r (r = Shape::colour_period / 2), so two tiles of one
+// colour, a tile apart, share no node when the tile is wider and taller than 2 r - 2 cells. Every
+// node's sum so comes in an order fixed by the cells and the particle order alone: the same bits
+// for any thread count. Tiles wide along x, where the cell order runs: a tile's row is a long
+// stretch of consecutive particles (once reordered by cell), and 4 passes over the grid instead
+// of colour_period^2 for single cells. On CPUs the stencils of a row's particles are computed in
+// batches, as for ParticleBatches.
+constexpr int colour_tile_x = 64;
+constexpr int colour_tile_y = 4;
 
 template <class Shape, class Body>
 void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
                                const ColouredCells& cells, const Body& body) {
-  static_assert(colour_tile > Shape::colour_period - 2, "tiles of one colour must not share a node");
+  static_assert(colour_tile_x > Shape::colour_period - 2 && colour_tile_y > Shape::colour_period - 2,
+                "tiles of one colour must not share a node");
   const auto x = particles.x;
   const auto y = particles.y;
   const auto cell = particles.cell;
   const index_t row_stride = shape.grid.geometry.nodes_x;
   const index_t cells_x = cells.cells_x, cells_y = cells.cells_y;
-  const index_t tiles_x = (cells_x + colour_tile - 1) / colour_tile, tiles_y = (cells_y + colour_tile - 1) / colour_tile;
+  const index_t tiles_x = (cells_x + colour_tile_x - 1) / colour_tile_x;
+  const index_t tiles_y = (cells_y + colour_tile_y - 1) / colour_tile_y;
   const IndexView offset = cells.cell_offset, order = cells.particle;
   for (int colour = 0; colour < 4; ++colour) {
     const index_t a = colour % 2, b = colour / 2;
@@ -212,12 +216,12 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
     Kokkos::parallel_for(
         label, Kokkos::RangePolicy<ExecutionSpace>(0, columns * rows), KOKKOS_LAMBDA(const index_t k) {
           const index_t tile_i = a + 2 * (k % columns), tile_j = b + 2 * (k / columns);
-          const index_t ci_end = (tile_i + 1) * colour_tile < cells_x ? (tile_i + 1) * colour_tile : cells_x;
-          const index_t cj_end = (tile_j + 1) * colour_tile < cells_y ? (tile_j + 1) * colour_tile : cells_y;
+          const index_t ci_end = (tile_i + 1) * colour_tile_x < cells_x ? (tile_i + 1) * colour_tile_x : cells_x;
+          const index_t cj_end = (tile_j + 1) * colour_tile_y < cells_y ? (tile_j + 1) * colour_tile_y : cells_y;
           // The tile's cells row by row: the particles of one row of the tile are consecutive in
           // the cell order.
-          for (index_t cj = tile_j * colour_tile; cj < cj_end; ++cj) {
-            const index_t row_begin = offset(tile_i * colour_tile + cells_x * cj);
+          for (index_t cj = tile_j * colour_tile_y; cj < cj_end; ++cj) {
+            const index_t row_begin = offset(tile_i * colour_tile_x + cells_x * cj);
             const index_t row_end = offset(ci_end + cells_x * cj);
             if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
               constexpr int L = stencil_batch_size;
