@@ -151,36 +151,48 @@ struct BatchLanes<Body, L, true> {
 // traversal.
 constexpr int stencil_batch_size = 32;
 
+// A batch's bodies, particle by particle (nvcc allows no `if constexpr` around what a device lambda
+// captures, hence overloads).
+template <int L, class Body, class Batch>
+KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch, index_t first, int count,
+                                            index_t row_stride, std::false_type /*gathers_then_finishes*/) {
+  for (int l = 0; l < count; ++l) body(first + l, batch.stencil(l, row_stride));
+}
+// ... or the node reads particle by particle, then the particle updates.
+template <int L, class Body, class Batch>
+KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch, index_t first, int count,
+                                            index_t row_stride, std::true_type /*gathers_then_finishes*/) {
+  typename BatchLanes<Body, L>::type lanes;
+  for (int l = 0; l < count; ++l) body.gather(batch.stencil(l, row_stride), lanes, l);
+  MPMFLOW_VECTORISE
+  for (int l = 0; l < count; ++l) body.finish(first + l, lanes, l);
+}
+
+template <class Shape, class Body>
+void for_each_particle_batch(const char* label, const Shape& shape, const ParticleLocations& particles,
+                             index_t num_particles, const Body& body) {
+  const auto x = particles.x;
+  const auto y = particles.y;
+  const auto cell = particles.cell;
+  constexpr int L = stencil_batch_size;
+  const index_t row_stride = shape.grid.geometry.nodes_x;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, (num_particles + L - 1) / L), KOKKOS_LAMBDA(const index_t k) {
+        const index_t first = k * L;
+        const int count = num_particles - first < L ? static_cast<int>(num_particles - first) : L;
+        StencilBatch<Shape::stencil_width, L> batch;
+        shape.fill_batch(ConsecutiveParticles{first}, count, cell.data(), x.data(), y.data(), batch);
+        run_bodies<L>(body, batch, first, count, row_stride, std::integral_constant<bool, GathersThenFinishes<Body>::value>());
+      });
+}
+
 template <class Shape, class Body>
 void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
                                const ParticleBatches& batches, const Body& body) {
-  const index_t num_particles = batches.count;
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
-    const auto x = particles.x;
-    const auto y = particles.y;
-    const auto cell = particles.cell;
-    constexpr int L = stencil_batch_size;
-    using Lanes = typename BatchLanes<Body, L>::type;
-    const index_t row_stride = shape.grid.geometry.nodes_x;
-    Kokkos::parallel_for(
-        label, Kokkos::RangePolicy<ExecutionSpace>(0, (num_particles + L - 1) / L), KOKKOS_LAMBDA(const index_t k) {
-          const index_t first = k * L;
-          const int count = num_particles - first < L ? static_cast<int>(num_particles - first) : L;
-          StencilBatch<Shape::stencil_width, L> batch;
-          shape.fill_batch(ConsecutiveParticles{first}, count, cell.data(), x.data(), y.data(), batch);
-          if constexpr (GathersThenFinishes<Body>::value) {
-            // The node reads particle by particle, then the particle updates.
-            Lanes lanes;
-            for (int l = 0; l < count; ++l) body.gather(batch.stencil(l, row_stride), lanes, l);
-            MPMFLOW_VECTORISE
-            for (int l = 0; l < count; ++l) body.finish(first + l, lanes, l);
-          } else {
-            for (int l = 0; l < count; ++l) body(first + l, batch.stencil(l, row_stride));
-          }
-        });
-  } else {
-    for_each_particle_stencil(label, shape, particles, num_particles, body);
-  }
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+    for_each_particle_batch(label, shape, particles, batches.count, body);
+  else
+    for_each_particle_stencil(label, shape, particles, batches.count, body);
 }
 
 // The same, tile by tile: the cells are grouped in tiles of colour_tile_x x colour_tile_y cells
@@ -209,6 +221,8 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
   const index_t tiles_x = (cells_x + colour_tile_x - 1) / colour_tile_x;
   const index_t tiles_y = (cells_y + colour_tile_y - 1) / colour_tile_y;
   const IndexView offset = cells.cell_offset, order = cells.particle;
+  // (A plain `if` on it below: nvcc allows no `if constexpr` around what a device lambda captures.)
+  constexpr bool batched = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
   for (int colour = 0; colour < 4; ++colour) {
     const index_t a = colour % 2, b = colour / 2;
     const index_t columns = (tiles_x - a + 1) / 2, rows = (tiles_y - b + 1) / 2;
@@ -223,7 +237,7 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
           for (index_t cj = tile_j * colour_tile_y; cj < cj_end; ++cj) {
             const index_t row_begin = offset(tile_i * colour_tile_x + cells_x * cj);
             const index_t row_end = offset(ci_end + cells_x * cj);
-            if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
+            if (batched) {
               constexpr int L = stencil_batch_size;
               for (index_t s = row_begin; s < row_end; s += L) {
                 const int count = row_end - s < L ? static_cast<int>(row_end - s) : L;
