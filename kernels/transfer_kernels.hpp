@@ -124,15 +124,15 @@ template <class Body>
 struct GathersThenFinishes<Body, std::void_t<decltype(Body::gathers_then_finishes)>>
     : std::integral_constant<bool, Body::gathers_then_finishes> {};
 
-// A G2P or G2PD sink that writes nothing but its own particle's data, marked by a member
-// writes_only_its_particle = true: its calls for different particles may run as vector lanes
-// (their loop is marked so).
-// (One that adds to its particle's cell, as cell-averaged strain does, may not.)
+// A G2P or G2PD sink that writes nothing but its own particle's data, marked by a member type
+// writes_only_its_particle = std::true_type: its calls for different particles may run as vector
+// lanes (their loop is marked so). (One that adds to its particle's cell, as cell-averaged strain
+// does, may not.) A type, not a constant: nvcc warns of a constant that its build never reads.
 template <class Sink, class = void>
 struct WritesOnlyItsParticle : std::false_type {};
 template <class Sink>
-struct WritesOnlyItsParticle<Sink, std::void_t<decltype(Sink::writes_only_its_particle)>>
-    : std::integral_constant<bool, Sink::writes_only_its_particle> {};
+struct WritesOnlyItsParticle<Sink, std::void_t<typename Sink::writes_only_its_particle>>
+    : Sink::writes_only_its_particle {};
 // Its per-batch storage for L lanes (nothing for other bodies).
 template <class Body, int L, bool = GathersThenFinishes<Body>::value>
 struct BatchLanes {

@@ -214,7 +214,7 @@ struct AccelerateThenCarryMomentum {
 // Sink of step 10: density, energy, pressure and artificial viscosity from div V; the particle
 // domain's stretches (diagonal of the deformation gradient, used by GIMP) from dVx/dx and dVy/dy.
 struct UpdateThermodynamics {
-  [[maybe_unused]] static constexpr bool writes_only_its_particle = true;  // (WritesOnlyItsParticle; unused on GPUs)
+  using writes_only_its_particle = std::true_type;  // (WritesOnlyItsParticle)
   RealView density, specific_energy, pressure, viscosity, stretch_x, stretch_y;
   real_t dt, gamma, cell_size, c0, c1;
   bool energy_consistent;

@@ -165,7 +165,7 @@ struct StoreValue {
 struct StoreGradient {
   // Lets the batched traversal run it in vector lanes (G2PDBody's two phases), so that the tests
   // of the batched mode cover that path.
-  [[maybe_unused]] static constexpr bool writes_only_its_particle = true;
+  using writes_only_its_particle = std::true_type;
   RealView out_x, out_y;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&g)[1][2]) const {
     out_x(p) = g[0][0];
