@@ -29,7 +29,7 @@ void permute_particle_field(const ViewType& view, const IndexView& permutation, 
 //  - In host memory (CPUs): a counting sort over chunks of consecutive particles, one per thread.
 //    Each chunk counts its particles per cell; a cell's particles from chunk t go after those of
 //    the chunks before it; each chunk then places its particles in index order. Three passes over
-//    the cell map, and (threads + 1) counters per cell.
+//    the cell map, and a counter per cell and chunk (at most 32 chunks).
 //  - Elsewhere: Kokkos' BinSort places particles in their bins with atomic counters, in an order
 //    that depends on thread timing; sorting within bins by the unique key (cell, particle index)
 //    makes the result unique. The particles per cell are counted with a ScatterView (integer sums:
@@ -73,7 +73,8 @@ class CellOrder {
 
   // (Public for nvcc, which allows device lambdas only in public member functions.)
   void build_by_counting(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
-    const index_t chunks = ExecutionSpace().concurrency();
+    // One chunk per thread, at most 32: the counters take 4 B per cell and chunk.
+    const index_t chunks = ExecutionSpace().concurrency() < 32 ? ExecutionSpace().concurrency() : 32;
     if (chunk_start_.extent(0) != static_cast<size_t>(num_cells) || chunk_start_.extent(1) != static_cast<size_t>(chunks))
       chunk_start_ = Kokkos::View<index_t**, Kokkos::LayoutRight, DeviceType>("cell_order_chunk_start", num_cells, chunks);
     const auto start = chunk_start_;

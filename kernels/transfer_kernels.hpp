@@ -456,9 +456,8 @@ struct G2PDBody {
   NodeFunctor node_functor;
   ParticleSink sink;
   template <class StencilType>
-  KOKKOS_FORCEINLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+  KOKKOS_FORCEINLINE_FUNCTION void gradient_at(const StencilType& s, real_t (&gradient)[N][2]) const {
     constexpr int K = StencilType::width;
-    real_t gradient[N][2];
     for (int c = 0; c < N; ++c) gradient[c][0] = gradient[c][1] = 0;
     for (int b = 0; b < K; ++b) {
       real_t row_w[N], row_g[N];  // sums over the row of wx[a] F and gx[a] F
@@ -476,6 +475,11 @@ struct G2PDBody {
         gradient[c][1] += s.gy[b] * row_w[c];
       }
     }
+  }
+  template <class StencilType>
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
+    real_t gradient[N][2];
+    gradient_at(s, gradient);
     sink(p, gradient);
   }
   // In two phases over a batch (for_each_particle_stencil, ParticleBatches): the gradients of
@@ -487,29 +491,7 @@ struct G2PDBody {
   };
   template <class StencilType, int L>
   KOKKOS_FORCEINLINE_FUNCTION void gather(const StencilType& s, Lanes<L>& lanes, int l) const {
-    constexpr int K = StencilType::width;
-    real_t gradient[N][2];
-    for (int c = 0; c < N; ++c) gradient[c][0] = gradient[c][1] = 0;
-    for (int b = 0; b < K; ++b) {
-      real_t row_w[N], row_g[N];
-      for (int c = 0; c < N; ++c) row_w[c] = row_g[c] = 0;
-      for (int a = 0; a < K; ++a) {
-        real_t node_value[N];
-        node_functor(s.node(a, b), node_value);
-        for (int c = 0; c < N; ++c) {
-          row_w[c] += s.wx[a] * node_value[c];
-          row_g[c] += s.gx[a] * node_value[c];
-        }
-      }
-      for (int c = 0; c < N; ++c) {
-        gradient[c][0] += s.wy[b] * row_g[c];
-        gradient[c][1] += s.gy[b] * row_w[c];
-      }
-    }
-    for (int c = 0; c < N; ++c) {
-      lanes.gradient[l][c][0] = gradient[c][0];
-      lanes.gradient[l][c][1] = gradient[c][1];
-    }
+    gradient_at(s, lanes.gradient[l]);
   }
   template <int L>
   KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const Lanes<L>& lanes, int l) const {
