@@ -99,9 +99,9 @@ struct DirectNodeAccess {
 inline void p2g_begin(DirectNodeAccess&, const NodeFieldsView&) {}
 inline void p2g_end(DirectNodeAccess&, const NodeFieldsView&) {}
 
-// Runs body(p, stencil) for every particle p, with its stencil from the shape policy: the one
-// particle loop all four transfer kernels share.
-// The reference traversal: one thread per particle, its stencil from the shape policy.
+// Runs body(p, stencil) for every particle p, with its stencil from the shape policy: the particle
+// loops all four transfer kernels share. This one is the reference traversal (a particle count):
+// one thread per particle.
 template <class Shape, class Body>
 void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
                                index_t num_particles, const Body& body) {
