@@ -133,22 +133,27 @@ KOKKOS_FORCEINLINE_FUNCTION void linear_axis_weights(real_t xi, real_t inv_h, re
   gradient_1 = inv_h;
 }
 
-// Bilinear basis in the particle's cell. Node order: (i,j), (i+1,j), (i,j+1), (i+1,j+1).
-KOKKOS_INLINE_FUNCTION SeparableStencil<2> q1_stencil(const StencilGrid& stencil_grid, index_t cell, real_t x,
-                                                      real_t y) {
+// The first node of a particle's cell, (i, j), and the particle's local coordinates xi, eta in
+// [0, 1] within the cell: what the bilinear basis needs (q1_stencil, LinearShape::fill_batch).
+KOKKOS_FORCEINLINE_FUNCTION index_t q1_first_node(const StencilGrid& stencil_grid, index_t cell, real_t x, real_t y,
+                                                  real_t& xi, real_t& eta) {
   const GridGeometry& grid = stencil_grid.geometry;
   index_t ci, cj;
   stencil_grid.column_and_row(cell, ci, cj);
-  const real_t inv_hx = stencil_grid.inv_spacing_x;
-  const real_t inv_hy = stencil_grid.inv_spacing_y;
-  // Local coordinates in [0, 1] within the cell.
-  const real_t xi = (x - grid.node_x(ci)) * inv_hx;
-  const real_t eta = (y - grid.node_y(cj)) * inv_hy;
+  xi = (x - grid.node_x(ci)) * stencil_grid.inv_spacing_x;
+  eta = (y - grid.node_y(cj)) * stencil_grid.inv_spacing_y;
+  return grid.node_index(ci, cj);
+}
+
+// Bilinear basis in the particle's cell. Node order: (i,j), (i+1,j), (i,j+1), (i+1,j+1).
+KOKKOS_INLINE_FUNCTION SeparableStencil<2> q1_stencil(const StencilGrid& stencil_grid, index_t cell, real_t x,
+                                                      real_t y) {
+  real_t xi, eta;
   SeparableStencil<2> s;
-  s.first_node = grid.node_index(ci, cj);
-  s.row_stride = grid.nodes_x;
-  linear_axis_weights(xi, inv_hx, s.wx[0], s.wx[1], s.gx[0], s.gx[1]);
-  linear_axis_weights(eta, inv_hy, s.wy[0], s.wy[1], s.gy[0], s.gy[1]);
+  s.first_node = q1_first_node(stencil_grid, cell, x, y, xi, eta);
+  s.row_stride = stencil_grid.geometry.nodes_x;
+  linear_axis_weights(xi, stencil_grid.inv_spacing_x, s.wx[0], s.wx[1], s.gx[0], s.gx[1]);
+  linear_axis_weights(eta, stencil_grid.inv_spacing_y, s.wy[0], s.wy[1], s.gy[0], s.gy[1]);
   return s;
 }
 
@@ -280,13 +285,10 @@ struct LinearShape {
     const BatchPositions<L> at(particle, count, cell, x, y);
     MPMFLOW_VECTORISE
     for (int l = 0; l < L; ++l) {
-      index_t ci, cj;
-      g.column_and_row(at.cell[l], ci, cj);
-      b.first_node[l] = g.geometry.node_index(ci, cj);
-      linear_axis_weights((at.x[l] - g.geometry.node_x(ci)) * g.inv_spacing_x, g.inv_spacing_x, b.wx[0][l],
-                          b.wx[1][l], b.gx[0][l], b.gx[1][l]);
-      linear_axis_weights((at.y[l] - g.geometry.node_y(cj)) * g.inv_spacing_y, g.inv_spacing_y, b.wy[0][l],
-                          b.wy[1][l], b.gy[0][l], b.gy[1][l]);
+      real_t xi, eta;
+      b.first_node[l] = q1_first_node(g, at.cell[l], at.x[l], at.y[l], xi, eta);
+      linear_axis_weights(xi, g.inv_spacing_x, b.wx[0][l], b.wx[1][l], b.gx[0][l], b.gx[1][l]);
+      linear_axis_weights(eta, g.inv_spacing_y, b.wy[0][l], b.wy[1][l], b.gy[0][l], b.gy[1][l]);
     }
   }
 };

@@ -182,6 +182,10 @@ struct Coloured {};
 // the other ScatterView modes take the reference traversal, one particle at a time.
 struct Batched {};
 
+// The ScatterView duplication of mode D (Batched: duplicated).
+template <class D>
+using DuplicationOf = std::conditional_t<std::is_same<D, Batched>::value, Dup, D>;
+
 // The traversal of all particles for mode D.
 template <class D>
 auto all_of(const DeviceParticles& d) {
@@ -203,8 +207,7 @@ NodeFieldsView run_p2g(const Shape& shape, const DeviceParticles& d, int columns
     else p2g("test_p2g", shape, d.where, cells, direct, 0, f);
     return fields;
   } else {
-    using Duplication = std::conditional_t<std::is_same<D, Batched>::value, Dup, D>;
-    NodeScatterView<Duplication> scatter(fields);
+    NodeScatterView<DuplicationOf<D>> scatter(fields);
     p2g_begin(scatter, fields);
     if constexpr (derivative) p2gd("test_p2gd", shape, d.where, all_of<D>(d), scatter, 0, f);
     else p2g("test_p2g", shape, d.where, all_of<D>(d), scatter, 0, f);
@@ -524,7 +527,7 @@ TYPED_TEST(TransferKernels, FusedG2PThenP2GEqualsTheTwoKernels) {
     g2p_then_p2g("test_fused", shape, d.where, cells, NodeColumn{nodal}, update, direct, 0);
   } else {
     using D = typename TypeParam::Duplication;
-    NodeScatterView<std::conditional_t<std::is_same<D, Batched>::value, Dup, D>> scatter(fused);
+    NodeScatterView<DuplicationOf<D>> scatter(fused);
     p2g_begin(scatter, fused);
     g2p_then_p2g("test_fused", shape, d.where, all_of<D>(d), NodeColumn{nodal}, update, scatter, 0);
     p2g_end(scatter, fused);
