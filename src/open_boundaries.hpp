@@ -75,7 +75,6 @@ KOKKOS_INLINE_FUNCTION void set_free_stream_particle(const ParticleState& pt, in
   pt.mass(p) = particle_mass;
   pt.density(p) = s.density;
   pt.specific_energy(p) = specific_energy;
-  pt.pressure(p) = s.pressure;
   pt.artificial_viscosity(p) = 0;
   pt.domain_stretch_x(p) = 1;
   pt.domain_stretch_y(p) = 1;

@@ -95,10 +95,11 @@ using h5::Handle;
 // The scalar particle fields of a snapshot, each one dataset of /particles and one XDMF
 // attribute: f(name, view) for each. The positions (the (N, 2) geometry), the velocity (an (N, 3)
 // vector, z = 0, as ParaView's glyphs and stream tracers want) and the vertex connectivity are
-// written apart.
+// written apart. The pressure, which the particles do not store, comes computed
+// (particle_pressure); where only the names and types are read, an empty View stands for it.
 template <class F>
-void for_each_snapshot_particle_field(const ParticleState& pt, F&& f) {
-  f("density", pt.density), f("pressure", pt.pressure), f("specific_energy", pt.specific_energy);
+void for_each_snapshot_particle_field(const ParticleState& pt, const RealView& pressure, F&& f) {
+  f("density", pt.density), f("pressure", pressure), f("specific_energy", pt.specific_energy);
   f("mass", pt.mass), f("id", pt.id);
 }
 
@@ -266,7 +267,8 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
                       context_);
       // Particle k is vertex cell k: without cells, ParaView's XDMF 3 reader shows no particles.
       h5::write_block(group, "vertices", {total}, {offset}, {static_cast<hsize_t>(n)}, vertices.data(), context_);
-      for_each_snapshot_particle_field(pt, [&](const char* name, const auto& view) {
+      for_each_snapshot_particle_field(pt, particle_pressure(pt, solver.config().physics.gamma),
+                                       [&](const char* name, const auto& view) {
         write_particle_field(group, name, view, n, offset, total, context_);
       });
     }
@@ -371,7 +373,7 @@ std::string SnapshotWriter::particles_grid_xml(const Record& r, const ParticleSt
       << indent << "  " << hdf_item(n + " 2", "Float", real_size, r.file, "/particles/position") << "\n"
       << indent << " </Geometry>\n";
   xml << attribute(indent + " ", "velocity", "Vector", hdf_item(n + " 3", "Float", real_size, r.file, "/particles/velocity"));
-  for_each_snapshot_particle_field(particles, [&](const char* field, const auto& view) {
+  for_each_snapshot_particle_field(particles, RealView(), [&](const char* field, const auto& view) {
     using Value = typename std::decay_t<decltype(view)>::non_const_value_type;
     xml << attribute(indent + " ", field, "Scalar",
                      hdf_item(n, xdmf_number_type<Value>(), sizeof(Value), r.file, std::string("/particles/") + field));

@@ -13,7 +13,7 @@ namespace {
 
 // Particle `gone` merged into particle `keep`. `gone` is left with no mass, which marks it for
 // removal.
-KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, index_t gone, real_t gamma) {
+KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, index_t gone) {
   const real_t m1 = pt.mass(keep), m2 = pt.mass(gone);
   const real_t m = m1 + m2;
   const real_t w1 = m1 / m, w2 = m2 / m;
@@ -40,7 +40,6 @@ KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, in
   pt.mass(keep) = m;
   pt.density(keep) = m / volume;
   pt.specific_energy(keep) = energy;
-  pt.pressure(keep) = perfect_gas_pressure(gamma, m / volume, energy);
   pt.domain_stretch_x(keep) = scale * sx;
   pt.domain_stretch_y(keep) = scale * sy;
   pt.mass(gone) = 0;
@@ -60,8 +59,7 @@ ParticleMerging::ParticleMerging(const CaseConfig& config, const GridGeometry& g
     // Only split particles merge: without splitting there is nothing to look for.
     : enabled_(config.numerics.merge_particles && config.numerics.split_particles),
       initial_volume_(geometry.spacing_x * geometry.spacing_y /
-                      (config.particles.per_cell_x * config.particles.per_cell_y)),
-      gamma_(config.physics.gamma) {}
+                      (config.particles.per_cell_x * config.particles.per_cell_y)) {}
 
 index_t ParticleMerging::merge(ParticleState& particles) const {
   if (!enabled_) return 0;
@@ -102,10 +100,9 @@ index_t ParticleMerging::merge(ParticleState& particles) const {
 
   const IndexView keep_device = to_device_indices("merge_keep", keep);
   const IndexView gone_device = to_device_indices("merge_gone", gone);
-  const real_t gamma = gamma_;
   Kokkos::parallel_for(
       "merge_pairs", Kokkos::RangePolicy<ExecutionSpace>(0, num_pairs),
-      KOKKOS_LAMBDA(const index_t k) { merge_pair(pt, keep_device(k), gone_device(k), gamma); });
+      KOKKOS_LAMBDA(const index_t k) { merge_pair(pt, keep_device(k), gone_device(k)); });
 
   // The merged-away particles removed, in increasing index order as the compaction wants.
   std::sort(gone.begin(), gone.end());

@@ -41,7 +41,6 @@ class ParticleMerging {
  private:
   bool enabled_ = false;
   real_t initial_volume_ = 0;
-  real_t gamma_ = 0;
 };
 
 }  // namespace mpmflow

@@ -21,7 +21,6 @@ ParticleState::ParticleState(index_t n)
       mass("particle_mass", n),
       density("particle_density", n),
       specific_energy("particle_specific_energy", n),
-      pressure("particle_pressure", n),
       artificial_viscosity("particle_artificial_viscosity", n),
       domain_stretch_x("particle_domain_stretch_x", n),
       domain_stretch_y("particle_domain_stretch_y", n),
@@ -80,7 +79,6 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
   auto m = Kokkos::create_mirror_view(particles.mass);
   auto rho = Kokkos::create_mirror_view(particles.density);
   auto e = Kokkos::create_mirror_view(particles.specific_energy);
-  auto p = Kokkos::create_mirror_view(particles.pressure);
   auto id = Kokkos::create_mirror_view(particles.id);
   const real_t particle_volume = slab.cell_area() / per_cell;
   const real_t gamma = config.physics.gamma;
@@ -92,7 +90,6 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
     vy(k) = s.velocity_y;
     rho(k) = s.density;
     m(k) = s.density * particle_volume;
-    p(k) = s.pressure;
     e(k) = perfect_gas_specific_energy(gamma, s.density, s.pressure);
     id(k) = ids[k];
   }
@@ -104,7 +101,6 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
   Kokkos::deep_copy(particles.mass, m);
   Kokkos::deep_copy(particles.density, rho);
   Kokkos::deep_copy(particles.specific_energy, e);
-  Kokkos::deep_copy(particles.pressure, p);
   Kokkos::deep_copy(particles.id, id);
   Kokkos::deep_copy(particles.domain_stretch_x, real_t(1));
   Kokkos::deep_copy(particles.domain_stretch_y, real_t(1));
@@ -112,6 +108,15 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
   Kokkos::deep_copy(particles.grid_velocity_y, particles.velocity_y);
   update_cell_map(slab.geometry, particles);
   return particles;
+}
+
+RealView particle_pressure(const ParticleState& particles, real_t gamma) {
+  RealView pressure("particle_pressure", particles.count);
+  const auto rho = particles.density, e = particles.specific_energy;
+  Kokkos::parallel_for(
+      "particle_pressure", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
+      KOKKOS_LAMBDA(const index_t p) { pressure(p) = perfect_gas_pressure(gamma, rho(p), e(p)); });
+  return pressure;
 }
 
 void update_cell_map(const GridGeometry& geometry, const ParticleState& particles) {
@@ -130,22 +135,26 @@ void reorder_particles_by_cell(const ParticleState& particles, index_t num_cells
 }
 
 index_t count_invalid_gas_states(const ParticleState& particles, real_t gamma) {
-  const auto vx = particles.velocity_x, vy = particles.velocity_y, p = particles.pressure, rho = particles.density;
+  const auto vx = particles.velocity_x, vy = particles.velocity_y, e = particles.specific_energy,
+             rho = particles.density;
   return count_particles(
       "invalid_gas_states", particles.count, KOKKOS_LAMBDA(const index_t k) {
-        return !is_valid_gas_state(rho(k), p(k), signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k))));
+        const real_t p = perfect_gas_pressure(gamma, rho(k), e(k));
+        return !is_valid_gas_state(rho(k), p, signal_speed(vx(k), vy(k), sound_speed(gamma, p, rho(k))));
       });
 }
 
 index_t fastest_particle(const ParticleState& particles, real_t gamma) {
   if (particles.count == 0) return -1;
-  const auto vx = particles.velocity_x, vy = particles.velocity_y, p = particles.pressure, rho = particles.density;
+  const auto vx = particles.velocity_x, vy = particles.velocity_y, e = particles.specific_energy,
+             rho = particles.density;
   using Reducer = Kokkos::MaxLoc<real_t, index_t>;
   typename Reducer::value_type fastest;
   Kokkos::parallel_reduce(
       "fastest_particle", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
       KOKKOS_LAMBDA(const index_t k, typename Reducer::value_type& best) {
-        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k)));
+        const real_t p = perfect_gas_pressure(gamma, rho(k), e(k));
+        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p, rho(k)));
         if (speed > best.val || (speed == best.val && k < best.loc)) {
           best.val = speed;
           best.loc = k;
@@ -157,13 +166,14 @@ index_t fastest_particle(const ParticleState& particles, real_t gamma) {
 
 index_t first_invalid_particle(const ParticleState& particles, real_t gamma) {
   const auto x = particles.position_x, y = particles.position_y, vx = particles.velocity_x,
-             vy = particles.velocity_y, p = particles.pressure, rho = particles.density;
+             vy = particles.velocity_y, e = particles.specific_energy, rho = particles.density;
   index_t first = particles.count;
   Kokkos::parallel_reduce(
       "find_invalid_particle", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
       KOKKOS_LAMBDA(const index_t k, index_t& smallest) {
-        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p(k), rho(k)));
-        const bool valid = is_valid_gas_state(rho(k), p(k), speed) && x(k) == x(k) && y(k) == y(k);
+        const real_t p = perfect_gas_pressure(gamma, rho(k), e(k));
+        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p, rho(k)));
+        const bool valid = is_valid_gas_state(rho(k), p, speed) && x(k) == x(k) && y(k) == y(k);
         if (!valid && k < smallest) smallest = k;
       },
       Kokkos::Min<index_t>(first));

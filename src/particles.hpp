@@ -15,7 +15,8 @@ struct ParticleState {
   RealView mass;
   RealView density;
   RealView specific_energy;       // internal energy per unit mass, e
-  RealView pressure;
+  // (No pressure field: a perfect gas's is (gamma - 1) rho e, perfect_gas_pressure; one source of
+  // truth, and 8 B per particle less.)
   RealView artificial_viscosity;  // q of the last update, used by the next force P2GD
   // Current / initial length of the particle's domain along x and y (GIMP particle size).
   RealView domain_stretch_x, domain_stretch_y;
@@ -55,7 +56,7 @@ struct ParticleState {
   static void visit_fields(Self& self, F& f) {
     f(self.position_x), f(self.position_y), f(self.velocity_x), f(self.velocity_y);
     f(self.grid_velocity_x), f(self.grid_velocity_y), f(self.mass), f(self.density);
-    f(self.specific_energy), f(self.pressure), f(self.artificial_viscosity);
+    f(self.specific_energy), f(self.artificial_viscosity);
     f(self.domain_stretch_x), f(self.domain_stretch_y), f(self.cell), f(self.id);
   }
 };
@@ -66,6 +67,10 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
 
 // The initial gas state at (x, y): the background, overridden by the last region containing it.
 GasState initial_state_at(const InitialStateConfig& initial, real_t x, real_t y);
+
+// Every particle's pressure, (gamma - 1) rho e, in a View of its own (for output: the particles do
+// not store it).
+RealView particle_pressure(const ParticleState& particles, real_t gamma);
 
 // Recomputes every particle's cell from its position.
 void update_cell_map(const GridGeometry& geometry, const ParticleState& particles);

@@ -25,6 +25,11 @@ typename ViewType::non_const_value_type value_at(const ViewType& view, index_t k
   return host(0);
 }
 
+// Particle k's pressure, read on the host (for messages).
+real_t pressure_at(const ParticleState& pt, index_t k, real_t gamma) {
+  return perfect_gas_pressure(gamma, value_at(pt.density, k), value_at(pt.specific_energy, k));
+}
+
 // This slab's particles per global cell column along its axis (row for slabs along y), from the
 // cell map; zero outside the slab.
 std::vector<long long> particles_per_column(const ParticleState& particles, const GridSlab& slab) {
@@ -141,7 +146,7 @@ void Solver::report_invalid_particle(bool local_invalid) const {
     const real_t x = value_at(pt.position_x, k), y = value_at(pt.position_y, k);
     std::ostringstream msg;
     msg << "invalid state after step " << step_count_ << ": particle " << id << " at (" << x << ", " << y
-        << ") has density " << value_at(pt.density, k) << ", pressure " << value_at(pt.pressure, k)
+        << ") has density " << value_at(pt.density, k) << ", pressure " << pressure_at(pt, k, config_.physics.gamma)
         << ", velocity (" << value_at(pt.velocity_x, k) << ", " << value_at(pt.velocity_y, k) << ")";
     message = msg.str();
     where[0] = double(id), where[1] = x, where[2] = y;
@@ -222,8 +227,7 @@ std::string Solver::describe_fastest_particle() const {
   double speed = -1;
   if (k >= 0)
     speed = signal_speed(value_at(particles_.velocity_x, k), value_at(particles_.velocity_y, k),
-                         sound_speed(config_.physics.gamma, value_at(particles_.pressure, k),
-                                     value_at(particles_.density, k)));
+                         sound_speed(config_.physics.gamma, pressure_at(particles_, k, config_.physics.gamma), value_at(particles_.density, k)));
   const double fastest = context.max(speed);
   // The lowest rank holding a particle that fast describes it.
   const int reporting_rank = static_cast<int>(context.min(speed == fastest && k >= 0 ? context.rank() : context.size()));
@@ -232,7 +236,7 @@ std::string Solver::describe_fastest_particle() const {
     std::ostringstream msg;
     msg << "particle " << value_at(particles_.id, k) << " at (" << value_at(particles_.position_x, k) << ", "
         << value_at(particles_.position_y, k) << "): |v| + c = " << speed << " (density "
-        << value_at(particles_.density, k) << ", pressure " << value_at(particles_.pressure, k) << ")";
+        << value_at(particles_.density, k) << ", pressure " << pressure_at(particles_, k, config_.physics.gamma) << ")";
     message = msg.str();
   }
   if (reporting_rank < context.size()) context.broadcast(message, reporting_rank);

@@ -12,15 +12,17 @@ namespace {
 // ---- On-the-fly functors of Algorithm 1 (the paper's I, zeta, eta and theta) ------------------
 
 // P2G(I, M), P2G(I, M Vx), P2G(I, M Vy), and P2G(I, P M / rho) for the nodes' sound speed (the
-// time step, node_signal_speed): GridFields::mass .. pressure_volume.
+// time step, node_signal_speed): GridFields::mass .. pressure_volume. For a perfect gas
+// P M / rho = (gamma - 1) M e: no division.
 struct MassMomentumAndPressureVolume {
   static constexpr int num_components = 4;
-  RealView mass, velocity_x, velocity_y, pressure, density;
+  RealView mass, velocity_x, velocity_y, specific_energy;
+  real_t gamma;
   KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, real_t (&value)[4]) const {
     value[0] = mass(p);
     value[1] = mass(p) * velocity_x(p);
     value[2] = mass(p) * velocity_y(p);
-    value[3] = pressure(p) * (mass(p) / density(p));  // the volume, as in InternalForce: computed once
+    value[3] = (gamma - 1) * mass(p) * specific_energy(p);
   }
 };
 
@@ -28,14 +30,15 @@ struct MassMomentumAndPressureVolume {
 // output (GridFields::ProjectionColumn).
 struct OutputProjection {
   static constexpr int num_components = GridFields::num_projection_columns;
-  RealView mass, velocity_x, velocity_y, density, pressure, specific_energy;
+  RealView mass, velocity_x, velocity_y, density, specific_energy;
+  real_t gamma;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[num_components]) const {
     const real_t m = mass(p);
     value[GridFields::projected_mass] = m;
     value[GridFields::projected_momentum_x] = m * velocity_x(p);
     value[GridFields::projected_momentum_y] = m * velocity_y(p);
     value[GridFields::projected_mass_density] = m * density(p);
-    value[GridFields::projected_mass_pressure] = m * pressure(p);
+    value[GridFields::projected_mass_pressure] = m * perfect_gas_pressure(gamma, density(p), specific_energy(p));
     value[GridFields::projected_mass_energy] = m * specific_energy(p);
   }
 };
@@ -50,12 +53,14 @@ struct Momentum {
   }
 };
 
-// P2GD(zeta / eta, P, Q, M, rho): the internal force f_i = sum_p (P+Q) (M/rho) grad phi_i (eq. 13).
+// P2GD(zeta / eta, P, Q, M, rho): the internal force f_i = sum_p (P+Q) (M/rho) grad phi_i (eq. 13),
+// with P M / rho = (gamma - 1) M e.
 struct InternalForce {
   static constexpr int num_components = 2;
-  RealView pressure, viscosity, mass, density;
+  RealView specific_energy, viscosity, mass, density;
+  real_t gamma;
   KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, real_t (&vector)[2][2]) const {
-    const real_t stress_times_volume = (pressure(p) + viscosity(p)) * (mass(p) / density(p));
+    const real_t stress_times_volume = (gamma - 1) * mass(p) * specific_energy(p) + viscosity(p) * (mass(p) / density(p));
     vector[0][0] = stress_times_volume;  // zeta: x force component pairs with d/dx
     vector[0][1] = 0;
     vector[1][0] = 0;                    // eta: y force component pairs with d/dy
@@ -84,10 +89,11 @@ enum CellSumColumn : int {
 // P2C of what the pressure equilibrium needs (the columns from cell_internal_energy on).
 struct EquilibriumSums {
   static constexpr int num_components = 6;
-  RealView mass, density, specific_energy, pressure;
+  RealView mass, density, specific_energy;
   real_t gamma;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[6]) const {
-    const real_t volume = mass(p) / density(p), pressure_p = pressure(p) > 0 ? pressure(p) : real_t(0);
+    const real_t volume = mass(p) / density(p), pressure = perfect_gas_pressure(gamma, density(p), specific_energy(p));
+    const real_t pressure_p = pressure > 0 ? pressure : real_t(0);
     value[0] = mass(p) * specific_energy(p);
     value[1] = volume * power(pressure_p, 1 / gamma);
     value[2] = volume * pressure_p;
@@ -115,7 +121,7 @@ KOKKOS_INLINE_FUNCTION real_t relative_spread(real_t volume, real_t sum, real_t 
 // pressures and densities, the same for all its particles (so that the sums hold), and nothing
 // across a shock or a contact (s >= 0.25).
 struct EquilibrateCellPressure {
-  RealView mass, density, specific_energy, pressure;
+  RealView mass, density, specific_energy;
   IndexView cell;
   NodeFieldsView sums;
   real_t gamma;
@@ -131,7 +137,8 @@ struct EquilibrateCellPressure {
     const real_t spread = pressure_spread > density_spread ? pressure_spread : density_spread;
     const real_t relaxation = 1 - spread / real_t(0.25);
     if (relaxation <= 0) return;
-    const real_t volume = mass(p) / density(p), pressure_p = pressure(p) > 0 ? pressure(p) : real_t(0);
+    const real_t volume = mass(p) / density(p), pressure = perfect_gas_pressure(gamma, density(p), specific_energy(p));
+    const real_t pressure_p = pressure > 0 ? pressure : real_t(0);
     const real_t equilibrium_volume = volume_c * volume * power(pressure_p, 1 / gamma) / weight_c;
     const real_t equilibrium_energy = sums(c, cell_internal_energy) * equilibrium_volume / volume_c;  // M e
     const real_t new_volume = volume + relaxation * (equilibrium_volume - volume);
@@ -139,18 +146,18 @@ struct EquilibrateCellPressure {
     if (!(new_volume > 0 && new_energy > 0)) return;
     density(p) = mass(p) / new_volume;
     specific_energy(p) = new_energy / mass(p);
-    pressure(p) = perfect_gas_pressure(gamma, density(p), specific_energy(p));
   }
 };
 
 // P2C(V), P2C((P + Q) V): the volume-weighted mean stress of each cell, before the force P2GD.
 struct VolumeAndStress {
   static constexpr int num_components = 2;
-  RealView mass, density, pressure, viscosity;
+  RealView mass, density, specific_energy, viscosity;
+  real_t gamma;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[2]) const {
     const real_t volume = mass(p) / density(p);
     value[0] = volume;
-    value[1] = (pressure(p) + viscosity(p)) * volume;
+    value[1] = (perfect_gas_pressure(gamma, density(p), specific_energy(p)) + viscosity(p)) * volume;
   }
 };
 
@@ -211,27 +218,25 @@ struct AccelerateThenCarryMomentum {
   }
 };
 
-// Sink of step 10: density, energy, pressure and artificial viscosity from div V; the particle
+// Sink of step 10: density, energy and artificial viscosity from div V (the pressure follows from
+// the density and the energy, perfect_gas_pressure, and is not stored); the particle
 // domain's stretches (diagonal of the deformation gradient, used by GIMP) from dVx/dx and dVy/dy.
 struct UpdateThermodynamics {
   using writes_only_its_particle = std::true_type;  // (WritesOnlyItsParticle)
-  RealView density, specific_energy, pressure, viscosity, stretch_x, stretch_y;
+  RealView density, specific_energy, viscosity, stretch_x, stretch_y;
   real_t dt, gamma, cell_size, c0, c1;
   bool energy_consistent;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&gradient)[2][2]) const {
     const real_t div_v = gradient[0][0] + gradient[1][1];
     stretch_x(p) *= 1 + dt * gradient[0][0];
     stretch_y(p) *= 1 + dt * gradient[1][1];
-    const real_t rho = density(p);
-    const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure(p), rho), cell_size, div_v, c0, c1);
+    const real_t rho = density(p), e = specific_energy(p), pressure = perfect_gas_pressure(gamma, rho, e);
+    const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure, rho), cell_size, div_v, c0, c1);
     // Energy-consistent: the viscous pressure that made this step's forces, so that the heat is
     // exactly the kinetic energy the viscosity removed; the paper's update takes the new one.
     const real_t q_of_work = energy_consistent ? viscosity(p) : q;
-    const real_t e_new = advanced_specific_energy(specific_energy(p), dt, pressure(p), q_of_work, rho, div_v);
-    const real_t rho_new = advanced_density(rho, dt, div_v);
-    specific_energy(p) = e_new;
-    density(p) = rho_new;
-    pressure(p) = perfect_gas_pressure(gamma, rho_new, e_new);
+    specific_energy(p) = advanced_specific_energy(e, dt, pressure, q_of_work, rho, div_v);
+    density(p) = advanced_density(rho, dt, div_v);
     viscosity(p) = q;
   }
 };
@@ -252,10 +257,10 @@ struct StretchAndCellDivergence {
   }
 };
 
-// Second pass: density, energy, pressure and viscosity from the cell's mean divergence; the
+// Second pass: density, energy and viscosity from the cell's mean divergence; the
 // energy-consistent work with the cell's mean P + Q that made the force.
 struct UpdateThermodynamicsFromCellMeans {
-  RealView density, specific_energy, pressure, viscosity;
+  RealView density, specific_energy, viscosity;
   IndexView cell;
   NodeFieldsView cell_sums;
   real_t dt, gamma, cell_size, c0, c1;
@@ -263,16 +268,13 @@ struct UpdateThermodynamicsFromCellMeans {
   KOKKOS_INLINE_FUNCTION void operator()(index_t p) const {
     const index_t c = cell(p);
     const real_t div_v = cell_mean(cell_sums, c, cell_divergence_volume);
-    const real_t rho = density(p);
-    const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure(p), rho), cell_size, div_v, c0, c1);
+    const real_t rho = density(p), e = specific_energy(p), pressure = perfect_gas_pressure(gamma, rho, e);
+    const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure, rho), cell_size, div_v, c0, c1);
     // The cell's mean (P + Q) x V, shared out by volume, is what this particle's share of the force
     // was made of; the paper's update takes the particle's own pressure and the new viscosity.
-    const real_t work_pressure = energy_consistent ? cell_mean(cell_sums, c, cell_stress_volume) : pressure(p) + q;
-    const real_t e_new = advanced_specific_energy(specific_energy(p), dt, work_pressure, real_t(0), rho, div_v);
-    const real_t rho_new = advanced_density(rho, dt, div_v);
-    specific_energy(p) = e_new;
-    density(p) = rho_new;
-    pressure(p) = perfect_gas_pressure(gamma, rho_new, e_new);
+    const real_t work_pressure = energy_consistent ? cell_mean(cell_sums, c, cell_stress_volume) : pressure + q;
+    specific_energy(p) = advanced_specific_energy(e, dt, work_pressure, real_t(0), rho, div_v);
+    density(p) = advanced_density(rho, dt, div_v);
     viscosity(p) = q;
   }
 };
@@ -389,24 +391,24 @@ class Transfers final : public TransferKernels {
       Kokkos::deep_copy(cell_sums_, real_t(0));
       p2g_begin(accumulation_.cells(), cell_sums_);
       p2c("p2c_volume", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_volume,
-          VolumeAndStress{pt.mass, pt.density, pt.pressure, pt.artificial_viscosity});
+          VolumeAndStress{pt.mass, pt.density, pt.specific_energy, pt.artificial_viscosity, gamma_});
       p2c("p2c_equilibrium", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_internal_energy,
-          EquilibriumSums{pt.mass, pt.density, pt.specific_energy, pt.pressure, gamma_});
+          EquilibriumSums{pt.mass, pt.density, pt.specific_energy, gamma_});
       p2g_end(accumulation_.cells(), cell_sums_);
       for_each_particle("cell_pressure_equilibrium", pt.count,
-                        EquilibrateCellPressure{pt.mass, pt.density, pt.specific_energy, pt.pressure, pt.cell,
+                        EquilibrateCellPressure{pt.mass, pt.density, pt.specific_energy, pt.cell,
                                                 cell_sums_, gamma_});
       // ... then each cell's volume and (P + Q) x volume, for its mean stress.
       Kokkos::deep_copy(cell_sums_, real_t(0));
       p2g_begin(accumulation_.cells(), cell_sums_);
       p2c("p2c_volume_stress", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_volume,
-          VolumeAndStress{pt.mass, pt.density, pt.pressure, pt.artificial_viscosity});
+          VolumeAndStress{pt.mass, pt.density, pt.specific_energy, pt.artificial_viscosity, gamma_});
       p2g_end(accumulation_.cells(), cell_sums_);
     }
     p2g_begin(accumulation_.state(), fields_.state);
     // Fused: the paper's P2G(M), P2G(M V) and P2GD((P + Q) M / rho) in one pass over the particles.
-    const MassMomentumAndPressureVolume mass_and_momentum{pt.mass, pt.velocity_x, pt.velocity_y, pt.pressure,
-                                                          pt.density};
+    const MassMomentumAndPressureVolume mass_and_momentum{pt.mass, pt.velocity_x, pt.velocity_y,
+                                                          pt.specific_energy, gamma_};
     if (cell_averaged_strain_)
       p2g_and_p2gd("p2g_mass_momentum_force", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
                    accumulation_.state(), GridFields::mass, mass_and_momentum, GridFields::force_x,
@@ -414,7 +416,7 @@ class Transfers final : public TransferKernels {
     else
       p2g_and_p2gd("p2g_mass_momentum_force", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
                    accumulation_.state(), GridFields::mass, mass_and_momentum, GridFields::force_x,
-                   InternalForce{pt.pressure, pt.artificial_viscosity, pt.mass, pt.density});
+                   InternalForce{pt.specific_energy, pt.artificial_viscosity, pt.mass, pt.density, gamma_});
     p2g_end(accumulation_.state(), fields_.state);
   }
 
@@ -453,7 +455,7 @@ class Transfers final : public TransferKernels {
       p2g_end(accumulation_.cells(), cell_sums_);
       // ... then every particle's state from its cell's means.
       for_each_particle("particle_update_cell_means", pt.count,
-                        UpdateThermodynamicsFromCellMeans{pt.density, pt.specific_energy, pt.pressure,
+                        UpdateThermodynamicsFromCellMeans{pt.density, pt.specific_energy,
                                                           pt.artificial_viscosity, pt.cell, cell_sums_, dt, k.gamma,
                                                           k.cell_size, k.viscosity_quadratic, k.viscosity_linear,
                                                           k.energy_consistent});
@@ -461,7 +463,7 @@ class Transfers final : public TransferKernels {
     }
     g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), ParticleBatches{pt.count},
          NodeColumns<2>{fields_.per_unit_mass, GridFields::remap_velocity_x},
-         UpdateThermodynamics{pt.density, pt.specific_energy, pt.pressure, pt.artificial_viscosity,
+         UpdateThermodynamics{pt.density, pt.specific_energy, pt.artificial_viscosity,
                               pt.domain_stretch_x, pt.domain_stretch_y, dt, k.gamma, k.cell_size,
                               k.viscosity_quadratic, k.viscosity_linear, k.energy_consistent});
   }
@@ -473,7 +475,7 @@ class Transfers final : public TransferKernels {
     p2g_begin(access, target);
     p2g("p2g_output_projection", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt), access,
         GridFields::projected_mass,
-        OutputProjection{pt.mass, pt.velocity_x, pt.velocity_y, pt.density, pt.pressure, pt.specific_energy});
+        OutputProjection{pt.mass, pt.velocity_x, pt.velocity_y, pt.density, pt.specific_energy, gamma_});
     p2g_end(access, target);
   }
 

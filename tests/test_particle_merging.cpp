@@ -63,8 +63,6 @@ ParticleState to_particles(const GridGeometry& g, const std::vector<HostParticle
   fill(pt.mass, host, [](const HostParticle& p) { return p.mass; });
   fill(pt.density, host, [](const HostParticle& p) { return p.density; });
   fill(pt.specific_energy, host, [](const HostParticle& p) { return p.specific_energy; });
-  fill(pt.pressure, host,
-       [](const HostParticle& p) { return perfect_gas_pressure(1.4, p.density, p.specific_energy); });
   fill(pt.domain_stretch_x, host, [](const HostParticle&) { return 0.5; });
   fill(pt.domain_stretch_y, host, [](const HostParticle&) { return 0.5; });
   fill(pt.cell, host, [&](const HostParticle& p) { return g.cell_of(p.x, p.y); });
@@ -75,16 +73,16 @@ struct Totals {
   double mass = 0, momentum_x = 0, momentum_y = 0, energy = 0, volume = 0;
 };
 
-// Per id: (mass, density, x, y, vx, vy, specific energy, pressure); and the totals.
+// Per id: (mass, density, x, y, vx, vy, specific energy); and the totals.
 std::map<long long, std::vector<double>> by_id(const ParticleState& pt, Totals& totals) {
   auto h = [](const auto& v) { return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v); };
   const auto id = h(pt.id);
   const auto m = h(pt.mass), rho = h(pt.density), x = h(pt.position_x), y = h(pt.position_y);
-  const auto vx = h(pt.velocity_x), vy = h(pt.velocity_y), e = h(pt.specific_energy), p = h(pt.pressure);
+  const auto vx = h(pt.velocity_x), vy = h(pt.velocity_y), e = h(pt.specific_energy);
   std::map<long long, std::vector<double>> state;
   totals = Totals();
   for (index_t k = 0; k < pt.count; ++k) {
-    state[id(k)] = {m(k), rho(k), x(k), y(k), vx(k), vy(k), e(k), p(k)};
+    state[id(k)] = {m(k), rho(k), x(k), y(k), vx(k), vy(k), e(k)};
     totals.mass += m(k);
     totals.momentum_x += m(k) * vx(k);
     totals.momentum_y += m(k) * vy(k);
@@ -124,7 +122,6 @@ TEST(ParticleMerging, TinyParticlesOfACellMergeInIdOrderConservingMassMomentumEn
   EXPECT_NEAR(c[1], (a[0] + b[0]) / (a[0] / a[1] + b[0] / b[1]), 1e-14);
   EXPECT_NEAR(c[2], (a[0] * a[2] + b[0] * b[2]) / (a[0] + b[0]), 1e-14);  // centre of mass
   EXPECT_NEAR(c[3], (a[0] * a[3] + b[0] * b[3]) / (a[0] + b[0]), 1e-14);
-  EXPECT_NEAR(c[7], perfect_gas_pressure(1.4, c[1], c[6]), 1e-14);
   // The kinetic energy of the relative motion became heat.
   EXPECT_GT(c[6], (a[0] * a[6] + b[0] * b[6]) / (a[0] + b[0]) + 1e-3);
   for (long long id : {-9, -3, -20, 30}) EXPECT_EQ(merged.at(id), initial.at(id)) << id;

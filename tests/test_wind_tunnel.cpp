@@ -431,7 +431,8 @@ TEST(CounterRandom, UniformInUnitIntervalWithTheRightMean) {
 struct HostParticles {
   std::vector<real_t> x, y, rho, p, vx;
 };
-HostParticles to_host(const ParticleState& pt) {
+HostParticles to_host(const Solver& solver) {
+  const ParticleState& pt = solver.particles();
   HostParticles h;
   auto copy = [&](const RealView& v, std::vector<real_t>& out) {
     auto m = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), v);
@@ -440,7 +441,7 @@ HostParticles to_host(const ParticleState& pt) {
   copy(pt.position_x, h.x);
   copy(pt.position_y, h.y);
   copy(pt.density, h.rho);
-  copy(pt.pressure, h.p);
+  copy(particle_pressure(pt, solver.config().physics.gamma), h.p);
   copy(pt.velocity_x, h.vx);
   return h;
 }
@@ -471,7 +472,7 @@ TEST(WindTunnel, EmptyTunnelKeepsTheFreeStream) {
                 placement, n, fewest, most);
     EXPECT_LE(most - n, n / 100) << placement;
     EXPECT_LE(n - fewest, n / 100) << placement;
-    const HostParticles h = to_host(solver.particles());
+    const HostParticles h = to_host(solver);
     auto mass = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), solver.particles().mass);
     constexpr int bands = 8;  // 0.5 x 2 each
     std::vector<double> count(bands), band_mass(bands), rho(bands), vx(bands), p(bands);
@@ -521,7 +522,7 @@ TEST(WindTunnel, SubsonicFarFieldLetsGasInAndOut) {
   while (t < 2) t = solver.step_towards(t, 2.0);
   const double mass = diagnostics.compute(solver.particles()).mass;
   const BoundaryFluxes& fluxes = solver.open_sides().fluxes();
-  const HostParticles h = to_host(solver.particles());
+  const HostParticles h = to_host(solver);
   double p = 0, vx = 0, y_min = 2;
   for (index_t k = 0; k < solver.particles().count; ++k) {
     p += h.p[k] / h.p.size(), vx += h.vx[k] / h.vx.size();
@@ -572,7 +573,7 @@ TEST(WindTunnel, FarFieldAlongTheFlowKeepsTheFreeStream) {
   for (double target : times) {
     while (t < target) t = solver.step_towards(t, target);
     mass = diagnostics.compute(solver.particles()).mass;
-    const HostParticles h = to_host(solver.particles());
+    const HostParticles h = to_host(solver);
     auto particle_mass = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), solver.particles().mass);
     std::vector<double> sum_p(rows), count(rows);
     for (index_t k = 0; k < solver.particles().count; ++k) {
@@ -620,7 +621,7 @@ TEST(WindTunnel, CoarseCylinderInvariantsAndBowShock) {
     const double balance = diagnostics.compute(solver.particles()).mass - initial_mass - fluxes.entered.mass +
                            fluxes.left.mass;
     worst_balance = std::max(worst_balance, std::fabs(balance) / initial_mass);
-    const HostParticles h = to_host(solver.particles());
+    const HostParticles h = to_host(solver);
     for (index_t k = 0; k < solver.particles().count; ++k) {
       const bool inside_domain = h.x[k] >= 0 && h.x[k] <= 4 && h.y[k] >= 0 && h.y[k] <= 2;
       const bool in_cylinder = cylinder(h.x[k], h.y[k]).distance < 0;
@@ -633,7 +634,7 @@ TEST(WindTunnel, CoarseCylinderInvariantsAndBowShock) {
   // between the inflow and the nose (x = 0.35); upstream of x = 0.1 it is still the free stream.
   EXPECT_LT(worst_balance, 1e-12);
   EXPECT_GT(solver.open_sides().fluxes().left.mass, 0.5 * initial_mass);  // the gas has been through the tunnel
-  const HostParticles h = to_host(solver.particles());
+  const HostParticles h = to_host(solver);
   const index_t n = solver.particles().count;
   double upstream_max = 0, shock_layer_max = 0;
   for (index_t k = 0; k < n; ++k) {
@@ -693,7 +694,7 @@ FreeStreamNoise free_stream_noise(bool cell_averaged_strain, P2GStrategy p2g) {
   const BoundaryFluxes& f = solver.open_sides().fluxes();
   const double residual = now.total_energy() - initial.total_energy() - f.entered.total_energy() +
                           f.left.total_energy() - f.boundary_work + f.kinetic_energy_stopped;
-  const HostParticles h = to_host(solver.particles());
+  const HostParticles h = to_host(solver);
   double sum_rho = 0, sum_rho2 = 0, sum_p = 0, sum_p2 = 0, n = 0;
   for (size_t k = 0; k < h.x.size(); ++k) {
     if (h.x[k] < 0.5 || h.x[k] > 3.5) continue;
