@@ -449,16 +449,19 @@ struct G2PThenP2GBody {
   }
 };
 
-// G2PD body: gradient_c = sum_i F_c(node i) grad phi_i(X_p), handed to sink(p, gradient).
+// G2P and G2PD body in one: value_c = sum_i F_c(node i) phi_i(X_p) and gradient_c = sum_i
+// F_c(node i) grad phi_i(X_p), handed to sink(p, value, gradient). The value costs a multiply-add
+// per row and column more than the gradient alone: its row sums are the gradient's along y.
 template <class NodeFunctor, class ParticleSink>
-struct G2PDBody {
+struct G2PAndG2PDBody {
   static constexpr int N = NodeFunctor::num_components;
   NodeFunctor node_functor;
   ParticleSink sink;
   template <class StencilType>
-  KOKKOS_FORCEINLINE_FUNCTION void gradient_at(const StencilType& s, real_t (&gradient)[N][2]) const {
+  KOKKOS_FORCEINLINE_FUNCTION void interpolate_at(const StencilType& s, real_t (&value)[N],
+                                                  real_t (&gradient)[N][2]) const {
     constexpr int K = StencilType::width;
-    for (int c = 0; c < N; ++c) gradient[c][0] = gradient[c][1] = 0;
+    for (int c = 0; c < N; ++c) value[c] = gradient[c][0] = gradient[c][1] = 0;
     for (int b = 0; b < K; ++b) {
       real_t row_w[N], row_g[N];  // sums over the row of wx[a] F and gx[a] F
       for (int c = 0; c < N; ++c) row_w[c] = row_g[c] = 0;
@@ -471,6 +474,7 @@ struct G2PDBody {
         }
       }
       for (int c = 0; c < N; ++c) {
+        value[c] += s.wy[b] * row_w[c];
         gradient[c][0] += s.wy[b] * row_g[c];
         gradient[c][1] += s.gy[b] * row_w[c];
       }
@@ -478,24 +482,36 @@ struct G2PDBody {
   }
   template <class StencilType>
   KOKKOS_FORCEINLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
-    real_t gradient[N][2];
-    gradient_at(s, gradient);
-    sink(p, gradient);
+    real_t value[N], gradient[N][2];
+    interpolate_at(s, value, gradient);
+    sink(p, value, gradient);
   }
-  // In two phases over a batch (for_each_particle_stencil, ParticleBatches): the gradients of
+  // In two phases over a batch (for_each_particle_stencil, ParticleBatches): the interpolations of
   // L particles, then their sinks, where the sink allows its calls to run as vector lanes.
   static constexpr bool gathers_then_finishes = WritesOnlyItsParticle<ParticleSink>::value;
   template <int L>
   struct Lanes {
-    real_t gradient[L][N][2];  // each lane's as the sink takes it (a local copy keeps GCC scalar)
+    real_t value[L][N];  // each lane's as the sink takes it (a local copy keeps GCC scalar)
+    real_t gradient[L][N][2];
   };
   template <class StencilType, int L>
   KOKKOS_FORCEINLINE_FUNCTION void gather(const StencilType& s, Lanes<L>& lanes, int l) const {
-    gradient_at(s, lanes.gradient[l]);
+    interpolate_at(s, lanes.value[l], lanes.gradient[l]);
   }
   template <int L>
   KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const Lanes<L>& lanes, int l) const {
-    sink(p, lanes.gradient[l]);
+    sink(p, lanes.value[l], lanes.gradient[l]);
+  }
+};
+
+// A G2PD sink, sink(p, gradient), as a G2P-and-G2PD one that leaves the values unused.
+template <class GradientSink>
+struct GradientOnly {
+  using writes_only_its_particle = std::integral_constant<bool, WritesOnlyItsParticle<GradientSink>::value>;
+  GradientSink sink;
+  template <int N>
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, const real_t (&)[N], const real_t (&gradient)[N][2]) const {
+    sink(p, gradient);
   }
 };
 
@@ -558,7 +574,18 @@ template <class Shape, class NodeFunctor, class ParticleSink, class Traversal>
 void g2pd(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& traversal,
           const NodeFunctor& node_functor, const ParticleSink& sink) {
   for_each_particle_stencil(label, shape, particles, traversal,
-                            G2PDBody<NodeFunctor, ParticleSink>{node_functor, sink});
+                            G2PAndG2PDBody<NodeFunctor, GradientOnly<ParticleSink>>{node_functor, {sink}});
+}
+
+// G2P and G2PD in one pass, with one stencil: value_c(p) = sum_i F_c(node i) phi_i(X_p) and
+// gradient_c(p) = sum_i F_c(node i) grad phi_i(X_p), handed to sink(p, value, gradient). (Algorithm
+// 1 interpolates V-bar in step 6 and keeps it per particle until the move, step 11; taking it here,
+// where the step-10 gradient is read, saves the two per-particle fields and their traffic.)
+template <class Shape, class NodeFunctor, class ParticleSink, class Traversal>
+void g2p_and_g2pd(const char* label, const Shape& shape, const ParticleLocations& particles,
+                  const Traversal& traversal, const NodeFunctor& node_functor, const ParticleSink& sink) {
+  for_each_particle_stencil(label, shape, particles, traversal,
+                            G2PAndG2PDBody<NodeFunctor, ParticleSink>{node_functor, sink});
 }
 
 }  // namespace mpmflow

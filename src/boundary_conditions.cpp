@@ -213,8 +213,8 @@ ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab&
   std::copy(types.begin(), types.end(), side_type);
 }
 
-double move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
-                      ObstacleForces* forces) {
+double apply_particle_boundaries(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
+                                 ObstacleForces* forces) {
   const ParticleBoundaries rules = boundaries;
   const ParticleState pt = particles;
   const size_t num_obstacles = forces ? forces->x.size() : 0;
@@ -226,7 +226,7 @@ double move_particles(const ParticleBoundaries& boundaries, const ParticleState&
           real_t ix, iy;
           index_t o;
           double lost = 0;
-          rules.move(p, dt, pt, ix, iy, o, lost);
+          rules.apply(p, pt, ix, iy, o, lost);
           sum += lost;
         },
         stopped);
@@ -247,7 +247,7 @@ double move_particles(const ParticleBoundaries& boundaries, const ParticleState&
         real_t ix = 0, iy = 0;
         index_t o = 0;
         double lost = 0;
-        const bool hit = rules.move(p, dt, pt, ix, iy, o, lost);
+        const bool hit = rules.apply(p, pt, ix, iy, o, lost);
         sum += lost;
         if (!hit) return;
         auto access = scatter.access();

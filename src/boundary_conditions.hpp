@@ -55,7 +55,7 @@ struct DomainBox {
 struct ObstacleForces {
   std::vector<double> x, y;
   // The particles' impulse on each obstacle in the particle move, (obstacle, {x, y}), and its
-  // accumulator: allocated once, not every step (move_particles).
+  // accumulator: allocated once, not every step (apply_particle_boundaries).
   using ImpulseView = Kokkos::View<double**, DeviceType>;
   ImpulseView particle_impulse;
   decltype(Kokkos::Experimental::create_scatter_view(ImpulseView())) particle_impulse_scatter;
@@ -79,7 +79,7 @@ class GridBoundaryConditions {
   ObstacleGrid obstacles_;
 };
 
-// After the move (Algorithm 1, step 11): a particle that crossed a slip wall is mirrored back and
+// After the move (Algorithm 1, step 11, X' = X + dt V-bar, made by the step-10 kernel): a particle that crossed a slip wall is mirrored back and
 // loses its outward normal velocity; one that entered an obstacle is put back on its surface, along
 // the normal, and loses its inward normal velocity. One that crossed an open side (inflow, outflow,
 // far field) is left where it is, outside the domain: the open sides remove or recycle it
@@ -96,27 +96,26 @@ struct ParticleBoundaries {
   ParticleBoundaries() = default;
   ParticleBoundaries(const CaseConfig& config, const GridSlab& slab, const ObstacleGrid& obstacle_grid);
 
-  // Moves particle p by dt V-bar and applies the rules above.
-  // Moves particle p; where an obstacle takes its inward normal velocity, returns true with the
-  // momentum it took (the particle's loss: the gas's impulse on the obstacle) and the obstacle.
-  // `stopped` gets the kinetic energy the rules took from it.
-  KOKKOS_INLINE_FUNCTION bool move(index_t p, real_t dt, const ParticleState& pt, real_t& impulse_x, real_t& impulse_y,
-                                   index_t& obstacle, double& stopped) const;
+  // Applies the rules above to moved particle p; where an obstacle takes its inward normal
+  // velocity, returns true with the momentum it took (the particle's loss: the gas's impulse on the
+  // obstacle) and the obstacle. `stopped` gets the kinetic energy the rules took from it.
+  KOKKOS_INLINE_FUNCTION bool apply(index_t p, const ParticleState& pt, real_t& impulse_x, real_t& impulse_y,
+                                    index_t& obstacle, double& stopped) const;
 };
 
-// Algorithm 1, step 11: every particle moved by dt V-bar, with the rules above.
+// Algorithm 1, step 11, after the particles have moved by dt V-bar: the rules above for every one.
 // With `forces`, adds to each obstacle's force the momentum its surface took from the particles
 // over dt (the inward normal velocity of those that entered it). Returns the kinetic energy the
 // particles lost to slip walls and obstacles (the velocity these rules take).
-double move_particles(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
-                    ObstacleForces* forces = nullptr);
+double apply_particle_boundaries(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
+                                 ObstacleForces* forces = nullptr);
 
 // ---- inline definitions --------------------------------------------------------------------------
 
-KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::move(index_t p, real_t dt, const ParticleState& pt, real_t& impulse_x,
-                                                     real_t& impulse_y, index_t& obstacle, double& stopped) const {
-  real_t x = pt.position_x(p) + dt * pt.grid_velocity_x(p);
-  real_t y = pt.position_y(p) + dt * pt.grid_velocity_y(p);
+KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::apply(index_t p, const ParticleState& pt, real_t& impulse_x,
+                                                      real_t& impulse_y, index_t& obstacle, double& stopped) const {
+  real_t x = pt.position_x(p);
+  real_t y = pt.position_y(p);
   const real_t kinetic_before = pt.velocity_x(p) * pt.velocity_x(p) + pt.velocity_y(p) * pt.velocity_y(p);
   // Slip walls: mirror, and keep no velocity out of the domain.
   if (x < domain.x_min && side_type[left_side] == BoundaryType::slip_wall) {

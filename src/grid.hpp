@@ -103,21 +103,24 @@ inline GridSlab make_grid_slab(const DomainConfig& domain, index_t cell_begin_x,
   return make_grid_slab(domain, 0, cell_begin_x, cell_end_x);
 }
 
-// Node fields of one slab. `state` holds the step's P2G results; `momentum_remap` the second
-// momentum P2G (Algorithm 1, step 8), kept apart so the mass column stays intact beside it.
+// Node fields of one slab. `state` holds the step's P2G results. Its momentum columns hold mv
+// (step 3), then (mv)' (step 5), then, as Algorithm 1 writes it, the remapped momentum mv =
+// P2G(M V') (step 8): (mv)' lives on as V-bar in `per_unit_mass`, and the remap needs no View, nor
+// ScatterView copies, of its own.
 // `per_unit_mass` holds what the G2P kernels interpolate: node momentum and force divided by the
 // node mass once per node (on the grid), instead of once per particle and stencil node inside
 // the G2P kernels (the paper's theta functor): ppc^2 fewer divisions.
 struct GridFields {
   // pressure_volume: sum_p phi_i P M / rho, with the mass the nodes' sound speed for the time step.
   enum StateColumn : int { mass = 0, momentum_x, momentum_y, pressure_volume, force_x, force_y, num_state_columns };
-  enum RemapColumn : int { remap_momentum_x = 0, remap_momentum_y, num_remap_columns };
+  // (In the order the kernels read them: the acceleration alone by G2P, V-bar and the remapped
+  // velocity together by the G2P-and-G2PD of steps 10-11.)
   enum PerUnitMassColumn : int {
-    velocity_x = 0,    // V-bar: updated momentum / mass (Algorithm 1, step 6)
-    velocity_y,
-    acceleration_x,    // force / mass (step 7)
+    acceleration_x = 0,  // force / mass (step 7)
     acceleration_y,
-    remap_velocity_x,  // remapped momentum / mass (step 10)
+    velocity_x,          // V-bar: updated momentum / mass (Algorithm 1, step 6), which moves the particles
+    velocity_y,
+    remap_velocity_x,    // remapped momentum / mass (step 10)
     remap_velocity_y,
     num_per_unit_mass_columns
   };
@@ -147,19 +150,17 @@ struct GridFields {
   };
 
   NodeFieldsView state;
-  NodeFieldsView momentum_remap;
   NodeFieldsView per_unit_mass;
   NodeFieldsView before_conditions;
 
   GridFields() = default;
   explicit GridFields(const GridGeometry& geometry)
       : state("node_state", geometry.num_nodes(), num_state_columns),
-        momentum_remap("node_momentum_remap", geometry.num_nodes(), num_remap_columns),
         per_unit_mass("node_per_unit_mass", geometry.num_nodes(), num_per_unit_mass_columns),
         before_conditions("node_before_conditions", geometry.num_nodes(), num_before_conditions_columns) {}
 
   size_t bytes() const {
-    return (state.span() + momentum_remap.span() + per_unit_mass.span() + before_conditions.span()) * sizeof(real_t);
+    return (state.span() + per_unit_mass.span() + before_conditions.span()) * sizeof(real_t);
   }
 };
 

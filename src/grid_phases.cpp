@@ -14,7 +14,11 @@ KOKKOS_INLINE_FUNCTION real_t per_unit_node_mass(real_t node_mass, real_t mass_t
 
 void reset_grid(const GridFields& fields) {
   Kokkos::deep_copy(fields.state, real_t(0));
-  Kokkos::deep_copy(fields.momentum_remap, real_t(0));
+}
+
+void reset_momentum(const GridFields& fields) {
+  Kokkos::deep_copy(Kokkos::subview(fields.state, Kokkos::ALL, std::make_pair(int(GridFields::momentum_x), int(GridFields::momentum_y) + 1)),
+                    real_t(0));
 }
 
 real_t max_node_signal_speed(const GridFields& fields, real_t gamma, real_t mass_threshold) {
@@ -51,7 +55,7 @@ void update_grid_momentum(const GridFields& fields, real_t dt, real_t mass_thres
 }
 
 void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, real_t dt, bool midpoint) {
-  const NodeFieldsView state = fields.state, remap = fields.momentum_remap, per_unit_mass = fields.per_unit_mass;
+  const NodeFieldsView state = fields.state, per_unit_mass = fields.per_unit_mass;
   // Weights of the remapped and of the old velocity V-bar - dt A.
   const real_t remap_weight = midpoint ? real_t(0.5) : real_t(1);
   const real_t old_weight = midpoint ? real_t(0.5) : real_t(0);
@@ -61,9 +65,9 @@ void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, rea
         const real_t old_x = per_unit_mass(i, GridFields::velocity_x) - dt * per_unit_mass(i, GridFields::acceleration_x);
         const real_t old_y = per_unit_mass(i, GridFields::velocity_y) - dt * per_unit_mass(i, GridFields::acceleration_y);
         per_unit_mass(i, GridFields::remap_velocity_x) =
-            remap_weight * remap(i, GridFields::remap_momentum_x) * inv_m + old_weight * old_x;
+            remap_weight * state(i, GridFields::momentum_x) * inv_m + old_weight * old_x;
         per_unit_mass(i, GridFields::remap_velocity_y) =
-            remap_weight * remap(i, GridFields::remap_momentum_y) * inv_m + old_weight * old_y;
+            remap_weight * state(i, GridFields::momentum_y) * inv_m + old_weight * old_y;
       });
 }
 
@@ -93,7 +97,7 @@ void keep_momentum_and_force_before_conditions(const GridFields& fields) {
 }
 
 void keep_remap_before_conditions(const GridFields& fields) {
-  copy_columns("keep_remap", fields.momentum_remap, GridFields::remap_momentum_x, fields.before_conditions,
+  copy_columns("keep_remap", fields.state, GridFields::momentum_x, fields.before_conditions,
                GridFields::raw_remap_momentum_x, 2);
 }
 

@@ -7,6 +7,8 @@ namespace mpmflow {
 
 // 2. Zeroes the columns the step's P2Gs accumulate into.
 void reset_grid(const GridFields& fields);
+// Before step 8: zeroes the momentum columns, which held (mv)' (V-bar keeps it), for the remap.
+void reset_momentum(const GridFields& fields);
 
 // The largest signal speed |v| + c over the nodes with more mass than `mass_threshold`, from
 // step 3's P2G: v = mv / m and c^2 = gamma sum_p phi P V / sum_p phi M, the mass-weighted mean of

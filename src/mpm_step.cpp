@@ -42,11 +42,15 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     auto t = timers.scope(Phase::grid_momentum_update);
     update_grid_momentum(grid, dt, mass_threshold);
   }
-  if (settings.fused_kernels) {  // 6.-8. in one pass over the particles
+  {  // ... and the momentum columns cleared for the remap of step 8
+    auto t = timers.scope(Phase::grid_reset);
+    reset_momentum(grid);
+  }
+  if (settings.fused_kernels) {  // 6.-8. in one pass over the particles (V-bar: see 11)
     auto t = timers.scope(Phase::g2p_p2g_velocity_momentum);
     transfers.g2p_p2g_velocity_momentum(particles, dt);
   } else {
-    {  // 6. V-bar = G2P(mv / m), A = G2P(f / m); 7. V' = V + dt A
+    {  // 6. A = G2P(f / m) (V-bar = G2P(mv / m): see 11); 7. V' = V + dt A
       auto t = timers.scope(Phase::g2p_velocity_acceleration);
       transfers.g2p_velocity_acceleration(particles, dt);
     }
@@ -57,12 +61,12 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
   }
   {  // ... summed over the slabs sharing a node
     auto t = timers.scope(Phase::halo_exchange);
-    slab.halo().sum_shared_nodes(grid.momentum_remap, 0, GridFields::num_remap_columns);
+    slab.halo().sum_shared_nodes(grid.state, GridFields::momentum_x, 2);
   }
   {  // 9. boundary conditions on mv
     auto t = timers.scope(Phase::boundary_conditions);
     if (energy_budget) keep_remap_before_conditions(grid);
-    slab.grid_boundaries().apply_to_momentum(grid.momentum_remap, GridFields::remap_momentum_x, grid.state);
+    slab.grid_boundaries().apply_to_momentum(grid.state, GridFields::momentum_x, grid.state);
   }
   {  // ... and mv / m on the nodes, for step 10
     auto t = timers.scope(Phase::grid_remap_velocity);
@@ -74,13 +78,14 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     work_of_conditions = boundary_work(grid, slab.slab().owned_nodes_with_outer_ghosts(), slab.geometry(), dt,
                                        mass_threshold);
   }
-  {  // 10. grad V = G2PD(mv / m); E', rho', P' (and Q) of the particles
+  {  // 10. grad V = G2PD(mv / m); E', rho' (and Q) of the particles; 11. X' = X + dt V-bar, with
+     // V-bar = G2P(mv' / m) at the same stencil (6. takes only A)
     auto t = timers.scope(Phase::g2pd_particle_update);
     transfers.g2pd_particle_update(particles, settings.thermodynamics, dt);
   }
-  {  // 11. X' = X + dt V-bar; walls, open sides and obstacles
+  {  // 11. walls, open sides and obstacles
     auto t = timers.scope(Phase::particle_move);
-    const double stopped = move_particles(slab.particle_boundaries(), particles, dt, &s.obstacle_forces);
+    const double stopped = apply_particle_boundaries(slab.particle_boundaries(), particles, dt, &s.obstacle_forces);
     s.open_sides.add_boundary_energy(work_of_conditions, stopped);
   }
   {  // particles that left through open sides removed (or recycled), the free stream's entered

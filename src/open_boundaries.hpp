@@ -70,8 +70,6 @@ KOKKOS_INLINE_FUNCTION void set_free_stream_particle(const ParticleState& pt, in
   pt.position_y(p) = y;
   pt.velocity_x(p) = vx;
   pt.velocity_y(p) = vy;
-  pt.grid_velocity_x(p) = vx;
-  pt.grid_velocity_y(p) = vy;
   pt.mass(p) = particle_mass;
   pt.density(p) = s.density;
   pt.specific_energy(p) = specific_energy;

@@ -34,8 +34,6 @@ KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, in
   pt.position_y(keep) = w1 * pt.position_y(keep) + w2 * pt.position_y(gone);
   pt.velocity_x(keep) = w1 * pt.velocity_x(keep) + w2 * pt.velocity_x(gone);
   pt.velocity_y(keep) = w1 * pt.velocity_y(keep) + w2 * pt.velocity_y(gone);
-  pt.grid_velocity_x(keep) = w1 * pt.grid_velocity_x(keep) + w2 * pt.grid_velocity_x(gone);
-  pt.grid_velocity_y(keep) = w1 * pt.grid_velocity_y(keep) + w2 * pt.grid_velocity_y(gone);
   pt.artificial_viscosity(keep) = w1 * pt.artificial_viscosity(keep) + w2 * pt.artificial_viscosity(gone);
   pt.mass(keep) = m;
   pt.density(keep) = m / volume;

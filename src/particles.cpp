@@ -16,8 +16,6 @@ ParticleState::ParticleState(index_t n)
       position_y("particle_position_y", n),
       velocity_x("particle_velocity_x", n),
       velocity_y("particle_velocity_y", n),
-      grid_velocity_x("particle_grid_velocity_x", n),
-      grid_velocity_y("particle_grid_velocity_y", n),
       mass("particle_mass", n),
       density("particle_density", n),
       specific_energy("particle_specific_energy", n),
@@ -104,8 +102,6 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
   Kokkos::deep_copy(particles.id, id);
   Kokkos::deep_copy(particles.domain_stretch_x, real_t(1));
   Kokkos::deep_copy(particles.domain_stretch_y, real_t(1));
-  Kokkos::deep_copy(particles.grid_velocity_x, particles.velocity_x);
-  Kokkos::deep_copy(particles.grid_velocity_y, particles.velocity_y);
   update_cell_map(slab.geometry, particles);
   return particles;
 }

@@ -10,8 +10,8 @@ struct ParticleState {
   index_t count = 0;
   RealView position_x, position_y;
   RealView velocity_x, velocity_y;
-  // The grid velocity interpolated at the particle (V-bar of Algorithm 1, step 6), which moves it.
-  RealView grid_velocity_x, grid_velocity_y;
+  // (V-bar, the grid velocity that moves a particle, is not stored: the step's G2P-and-G2PD
+  // interpolates it and advances the position, which apply_particle_boundaries then corrects.)
   RealView mass;
   RealView density;
   RealView specific_energy;       // internal energy per unit mass, e
@@ -55,7 +55,7 @@ struct ParticleState {
   template <class Self, class F>
   static void visit_fields(Self& self, F& f) {
     f(self.position_x), f(self.position_y), f(self.velocity_x), f(self.velocity_y);
-    f(self.grid_velocity_x), f(self.grid_velocity_y), f(self.mass), f(self.density);
+    f(self.mass), f(self.density);
     f(self.specific_energy), f(self.artificial_viscosity);
     f(self.domain_stretch_x), f(self.domain_stretch_y), f(self.cell), f(self.id);
   }

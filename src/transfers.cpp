@@ -193,15 +193,13 @@ struct NodeColumns {
   }
 };
 
-// Sink of step 6-7: keep V-bar for the move, update V with the interpolated acceleration.
-struct StoreGridVelocityAndAccelerate {
-  RealView grid_velocity_x, grid_velocity_y, velocity_x, velocity_y;
+// Sink of step 6-7: V updated with the interpolated acceleration (GridFields::acceleration_x, y).
+struct Accelerate {
+  RealView velocity_x, velocity_y;
   real_t dt;
-  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4]) const {
-    grid_velocity_x(p) = value[0];
-    grid_velocity_y(p) = value[1];
-    velocity_x(p) += dt * value[2];
-    velocity_y(p) += dt * value[3];
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, const real_t (&value)[2]) const {
+    velocity_x(p) += dt * value[0];
+    velocity_y(p) += dt * value[1];
   }
 };
 
@@ -209,12 +207,32 @@ struct StoreGridVelocityAndAccelerate {
 // momentum M V' for the remap P2G.
 struct AccelerateThenCarryMomentum {
   static constexpr int num_components = 2;
-  StoreGridVelocityAndAccelerate store;
+  Accelerate accelerate;
   RealView mass;
-  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4], real_t (&momentum)[2]) const {
-    store(p, value);
-    momentum[0] = mass(p) * store.velocity_x(p);
-    momentum[1] = mass(p) * store.velocity_y(p);
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, const real_t (&value)[2], real_t (&momentum)[2]) const {
+    accelerate(p, value);
+    momentum[0] = mass(p) * accelerate.velocity_x(p);
+    momentum[1] = mass(p) * accelerate.velocity_y(p);
+  }
+};
+
+// What step 10 interpolates at each particle, in one G2P-and-G2PD: GridFields::velocity_x ..
+// remap_velocity_y, of which it takes V-bar's values (the move, step 11) and the remapped
+// velocity's gradient.
+using MoveAndRemapVelocity = NodeColumns<4>;
+enum MoveAndRemapVelocityColumn : int {
+  moving_velocity = 0,
+  remapped_velocity = GridFields::remap_velocity_x - GridFields::velocity_x
+};
+
+// Step 11's move, X' = X + dt V-bar, V-bar interpolated at the step-10 stencil; the walls, sides
+// and obstacles come after (apply_particle_boundaries).
+struct AdvancePosition {
+  RealView position_x, position_y;
+  real_t dt;
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4]) const {
+    position_x(p) += dt * value[moving_velocity];
+    position_y(p) += dt * value[moving_velocity + 1];
   }
 };
 
@@ -223,13 +241,16 @@ struct AccelerateThenCarryMomentum {
 // domain's stretches (diagonal of the deformation gradient, used by GIMP) from dVx/dx and dVy/dy.
 struct UpdateThermodynamics {
   using writes_only_its_particle = std::true_type;  // (WritesOnlyItsParticle)
+  AdvancePosition advance;
   RealView density, specific_energy, viscosity, stretch_x, stretch_y;
   real_t dt, gamma, cell_size, c0, c1;
   bool energy_consistent;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&gradient)[2][2]) const {
-    const real_t div_v = gradient[0][0] + gradient[1][1];
-    stretch_x(p) *= 1 + dt * gradient[0][0];
-    stretch_y(p) *= 1 + dt * gradient[1][1];
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4], const real_t (&gradient)[4][2]) const {
+    advance(p, value);
+    const real_t dvx_dx = gradient[remapped_velocity][0], dvy_dy = gradient[remapped_velocity + 1][1];
+    const real_t div_v = dvx_dx + dvy_dy;
+    stretch_x(p) *= 1 + dt * dvx_dx;
+    stretch_y(p) *= 1 + dt * dvy_dy;
     const real_t rho = density(p), e = specific_energy(p), pressure = perfect_gas_pressure(gamma, rho, e);
     const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure, rho), cell_size, div_v, c0, c1);
     // Energy-consistent: the viscous pressure that made this step's forces, so that the heat is
@@ -242,18 +263,21 @@ struct UpdateThermodynamics {
 };
 
 // Step 10 with cell-averaged strain, first pass: the domain's stretches from the particle's own
-// gradient, and its divergence x volume into its cell.
+// gradient, and its divergence x volume into its cell (the cell it had before this move).
 template <class Access>
 struct StretchAndCellDivergence {
+  AdvancePosition advance;
   RealView stretch_x, stretch_y, mass, density;
   IndexView cell;
   Access cell_sums;
   real_t dt;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&gradient)[2][2]) const {
-    stretch_x(p) *= 1 + dt * gradient[0][0];
-    stretch_y(p) *= 1 + dt * gradient[1][1];
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4], const real_t (&gradient)[4][2]) const {
+    advance(p, value);
+    const real_t dvx_dx = gradient[remapped_velocity][0], dvy_dy = gradient[remapped_velocity + 1][1];
+    stretch_x(p) *= 1 + dt * dvx_dx;
+    stretch_y(p) *= 1 + dt * dvy_dy;
     auto access = cell_sums.access();
-    access(cell(p), cell_divergence_volume) += (gradient[0][0] + gradient[1][1]) * mass(p) / density(p);
+    access(cell(p), cell_divergence_volume) += (dvx_dx + dvy_dy) * mass(p) / density(p);
   }
 };
 
@@ -319,12 +343,12 @@ class ScatterAccumulation {
   using Access = NodeScatterView<Duplication>;
 
   ScatterAccumulation(const GridFields& fields, const NodeFieldsView& cell_sums)
-      : state_(fields.state), remap_(fields.momentum_remap), cells_(cell_sums) {}
+      : state_(fields.state), cells_(cell_sums) {}
   void prepare(const ParticleState&, const GridGeometry&) {}
   // Batched stencils on CPUs (for_each_particle_stencil).
   ParticleBatches traversal(const ParticleState& particles) const { return ParticleBatches{particles.count}; }
+  // Steps 3 and 8 (the remap into the momentum columns).
   Access& state() { return state_; }
-  Access& remap() { return remap_; }
   Access& cells() { return cells_; }
   // An accumulator into another View (the output projection), made for the occasion.
   Access into(const NodeFieldsView& target) const { return Access(target); }
@@ -333,13 +357,12 @@ class ScatterAccumulation {
   size_t extra_bytes() const {
     if (!duplicated) return 0;
     const size_t copies = static_cast<size_t>(ExecutionSpace().concurrency());
-    return copies * sizeof(real_t) * (state_.subview().span() + remap_.subview().span() + cells_.subview().span());
+    return copies * sizeof(real_t) * (state_.subview().span() + cells_.subview().span());
   }
 
  private:
   // Kept alive across steps: creating a duplicated ScatterView allocates a copy per thread.
   Access state_;
-  Access remap_;
   Access cells_;  // the per-cell sums of cell-averaged strain
 };
 
@@ -351,21 +374,20 @@ class ColouredAccumulation {
   using Access = DirectNodeAccess;
 
   ColouredAccumulation(const GridFields& fields, const NodeFieldsView& cell_sums)
-      : state_{fields.state}, remap_{fields.momentum_remap}, cell_sums_{cell_sums} {}
+      : state_{fields.state}, cell_sums_{cell_sums} {}
   void prepare(const ParticleState& particles, const GridGeometry& grid) {
     order_.build(particles.cell, particles.count, grid.num_cells());
     cells_ = {order_.cell_offset(), order_.particle(), grid.cells_x(), grid.cells_y()};
   }
   const ColouredCells& traversal(const ParticleState&) const { return cells_; }
   Access& state() { return state_; }
-  Access& remap() { return remap_; }
   Access& cells() { return cell_sums_; }
   Access into(const NodeFieldsView& target) const { return Access{target}; }
   P2GStrategy strategy() const { return P2GStrategy::sorted; }
   size_t extra_bytes() const { return order_.bytes(); }
 
  private:
-  Access state_, remap_, cell_sums_;
+  Access state_, cell_sums_;
   CellOrder order_;
   ColouredCells cells_;
 };
@@ -421,24 +443,24 @@ class Transfers final : public TransferKernels {
   }
 
   void g2p_p2g_velocity_momentum(const ParticleState& pt, real_t dt) override {
-    p2g_begin(accumulation_.remap(), fields_.momentum_remap);
+    p2g_begin(accumulation_.state(), fields_.state);
     g2p_then_p2g("g2p_p2g_velocity_momentum", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
-                 NodeColumns<4>{fields_.per_unit_mass, GridFields::velocity_x},
-                 AccelerateThenCarryMomentum{accelerate(pt, dt), pt.mass}, accumulation_.remap(),
-                 GridFields::remap_momentum_x);
-    p2g_end(accumulation_.remap(), fields_.momentum_remap);
+                 NodeColumns<2>{fields_.per_unit_mass, GridFields::acceleration_x},
+                 AccelerateThenCarryMomentum{Accelerate{pt.velocity_x, pt.velocity_y, dt}, pt.mass}, accumulation_.state(),
+                 GridFields::momentum_x);
+    p2g_end(accumulation_.state(), fields_.state);
   }
 
   void g2p_velocity_acceleration(const ParticleState& pt, real_t dt) override {
     g2p("g2p_velocity_acceleration", current_shape(shape_, pt), pt.locations(), ParticleBatches{pt.count},
-        NodeColumns<4>{fields_.per_unit_mass, GridFields::velocity_x}, accelerate(pt, dt));
+        NodeColumns<2>{fields_.per_unit_mass, GridFields::acceleration_x}, Accelerate{pt.velocity_x, pt.velocity_y, dt});
   }
 
   void p2g_momentum_remap(const ParticleState& pt) override {
-    p2g_begin(accumulation_.remap(), fields_.momentum_remap);
+    p2g_begin(accumulation_.state(), fields_.state);
     p2g("p2g_momentum_remap", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
-        accumulation_.remap(), GridFields::remap_momentum_x, Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
-    p2g_end(accumulation_.remap(), fields_.momentum_remap);
+        accumulation_.state(), GridFields::momentum_x, Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
+    p2g_end(accumulation_.state(), fields_.state);
   }
 
   void g2pd_particle_update(const ParticleState& pt, const ThermodynamicConstants& k, real_t dt) override {
@@ -448,10 +470,10 @@ class Transfers final : public TransferKernels {
       Kokkos::deep_copy(Kokkos::subview(cell_sums_, Kokkos::ALL, int(cell_divergence_volume)), real_t(0));
       using Access = std::decay_t<decltype(accumulation_.cells())>;
       p2g_begin(accumulation_.cells(), cell_sums_);
-      g2pd("g2pd_cell_divergence", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
-           NodeColumns<2>{fields_.per_unit_mass, GridFields::remap_velocity_x},
-           StretchAndCellDivergence<Access>{pt.domain_stretch_x, pt.domain_stretch_y, pt.mass, pt.density, pt.cell,
-                                            accumulation_.cells(), dt});
+      g2p_and_g2pd("g2pd_cell_divergence", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
+                   MoveAndRemapVelocity{fields_.per_unit_mass, GridFields::velocity_x},
+                   StretchAndCellDivergence<Access>{advance(pt, dt), pt.domain_stretch_x, pt.domain_stretch_y, pt.mass,
+                                                    pt.density, pt.cell, accumulation_.cells(), dt});
       p2g_end(accumulation_.cells(), cell_sums_);
       // ... then every particle's state from its cell's means.
       for_each_particle("particle_update_cell_means", pt.count,
@@ -461,9 +483,9 @@ class Transfers final : public TransferKernels {
                                                           k.energy_consistent});
       return;
     }
-    g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), ParticleBatches{pt.count},
-         NodeColumns<2>{fields_.per_unit_mass, GridFields::remap_velocity_x},
-         UpdateThermodynamics{pt.density, pt.specific_energy, pt.artificial_viscosity,
+    g2p_and_g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), ParticleBatches{pt.count},
+                 MoveAndRemapVelocity{fields_.per_unit_mass, GridFields::velocity_x},
+                 UpdateThermodynamics{advance(pt, dt), pt.density, pt.specific_energy, pt.artificial_viscosity,
                               pt.domain_stretch_x, pt.domain_stretch_y, dt, k.gamma, k.cell_size,
                               k.viscosity_quadratic, k.viscosity_linear, k.energy_consistent});
   }
@@ -483,9 +505,7 @@ class Transfers final : public TransferKernels {
   size_t scratch_bytes() const override { return accumulation_.extra_bytes(); }
 
  private:
-  static StoreGridVelocityAndAccelerate accelerate(const ParticleState& pt, real_t dt) {
-    return {pt.grid_velocity_x, pt.grid_velocity_y, pt.velocity_x, pt.velocity_y, dt};
-  }
+  static AdvancePosition advance(const ParticleState& pt, real_t dt) { return {pt.position_x, pt.position_y, dt}; }
 
   GridGeometry geometry_;
   GridFields fields_;

@@ -18,8 +18,8 @@ export OMP_PROC_BIND=false
 base_args=("$source_dir/cases/cylinder_mach3.json" --progress-interval 1000 --set domain/cells_x=60 --set domain/cells_y=30
   --set 'particles/per_cell=[2,2]' --set time/end=0.3 --set output/checkpoint_interval=5)
 # The disk fills while a snapshot is written (10 snapshots, 4 MB), and while a checkpoint is (no
-# snapshots, 2 MB: the third checkpoint does not fit beside the two kept).
-for spec in "10 4m" "0 2m"; do
+# snapshots, 1.5 MB: a checkpoint is 0.63 MB, so the third does not fit beside the two kept).
+for spec in "10 4m" "0 1536k"; do
   read -r snapshots size <<< "$spec"
   echo "== $snapshots snapshots and a checkpoint every 5 steps, into $size"
   rm -rf "$work_dir/disk/out" "$work_dir/restarted"

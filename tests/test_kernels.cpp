@@ -163,13 +163,23 @@ struct StoreValue {
 };
 
 struct StoreGradient {
-  // Lets the batched traversal run it in vector lanes (G2PDBody's two phases), so that the tests
-  // of the batched mode cover that path.
+  // Lets the batched traversal run it in vector lanes (G2PAndG2PDBody's two phases), so that the
+  // tests of the batched mode cover that path.
   using writes_only_its_particle = std::true_type;
   RealView out_x, out_y;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&g)[1][2]) const {
     out_x(p) = g[0][0];
     out_y(p) = g[0][1];
+  }
+};
+
+struct StoreValueAndGradient {
+  using writes_only_its_particle = std::true_type;  // as StoreGradient
+  StoreValue value;
+  StoreGradient gradient;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&v)[1], const real_t (&g)[1][2]) const {
+    value(p, v);
+    gradient(p, g);
   }
 };
 
@@ -452,6 +462,18 @@ TYPED_TEST(TransferKernels, G2PReproducesLinearNodalFieldAndGradientExactly) {
     EXPECT_NEAR(hv(k), linear_field(hx(k), hy(k)), 1e-13);
     EXPECT_NEAR(hgx(k), -2.0, 1e-12);
     EXPECT_NEAR(hgy(k), 0.75, 1e-12);
+  }
+  // The two in one pass: the same values and gradients.
+  RealView both_value("both_value", d.count), both_x("both_x", d.count), both_y("both_y", d.count);
+  g2p_and_g2pd("test_g2p_and_g2pd", shape, d.where, all, NodeColumn{nodal},
+               StoreValueAndGradient{{both_value}, {both_x, both_y}});
+  auto bv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), both_value);
+  auto bx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), both_x);
+  auto by = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), both_y);
+  for (index_t k = 0; k < d.count; ++k) {
+    ASSERT_NEAR(bv(k), hv(k), 1e-14) << k;
+    ASSERT_NEAR(bx(k), hgx(k), 1e-13) << k;
+    ASSERT_NEAR(by(k), hgy(k), 1e-13) << k;
   }
 }
 

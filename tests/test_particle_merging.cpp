@@ -58,8 +58,6 @@ ParticleState to_particles(const GridGeometry& g, const std::vector<HostParticle
   fill(pt.position_y, host, [](const HostParticle& p) { return p.y; });
   fill(pt.velocity_x, host, [](const HostParticle& p) { return p.vx; });
   fill(pt.velocity_y, host, [](const HostParticle& p) { return p.vy; });
-  fill(pt.grid_velocity_x, host, [](const HostParticle& p) { return p.vx; });
-  fill(pt.grid_velocity_y, host, [](const HostParticle& p) { return p.vy; });
   fill(pt.mass, host, [](const HostParticle& p) { return p.mass; });
   fill(pt.density, host, [](const HostParticle& p) { return p.density; });
   fill(pt.specific_energy, host, [](const HostParticle& p) { return p.specific_energy; });

@@ -246,10 +246,9 @@ TEST(ParticlePlacement, RandomPlacementAvoidsObstaclesAndDoesNotDependOnTheSplit
 // open sides of `open_sides` for a step of dt numbered `step`.
 void push_through_outflow(const SlabState& slab, OpenBoundaries& open_sides, ParticleState& pt, real_t dt,
                           long step) {
-  Kokkos::deep_copy(pt.position_x, real_t(3.99));
-  Kokkos::deep_copy(pt.grid_velocity_x, real_t(1));  // 3.99 + dt > 4: out through the right side
-  Kokkos::deep_copy(pt.grid_velocity_y, real_t(0));
-  move_particles(slab.particle_boundaries(), pt, dt);
+  // Moved from 3.99 at V-bar = (1, 0): 3.99 + dt > 4, out through the right side.
+  Kokkos::deep_copy(pt.position_x, real_t(3.99) + dt);
+  apply_particle_boundaries(slab.particle_boundaries(), pt, dt);
   open_sides.exchange(pt, slab, dt, step);
 }
 
@@ -388,16 +387,14 @@ TEST(OpenSides, ParticlesLeavingAreRemovedAndCounted) {
   auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.position_x);
   auto id = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.id);
   std::set<particle_id_t> staying;
-  for (index_t k = 0; k < n; ++k) {
-    x(k) = k % 2 ? real_t(3.99) : real_t(2);
+  const real_t dt = 0.02;
+  for (index_t k = 0; k < n; ++k) {  // moved by dt V-bar, V-bar = (1, 0)
+    x(k) = (k % 2 ? real_t(3.99) : real_t(2)) + dt;
     if (k % 2 == 0) staying.insert(id(k));
   }
   Kokkos::deep_copy(pt.position_x, x);
-  Kokkos::deep_copy(pt.grid_velocity_x, real_t(1));
-  Kokkos::deep_copy(pt.grid_velocity_y, real_t(0));
   OpenBoundaries open_sides(config, slab);
-  const real_t dt = 0.02;
-  move_particles(slab_state.particle_boundaries(), pt, dt);
+  apply_particle_boundaries(slab_state.particle_boundaries(), pt, dt);
   open_sides.exchange(pt, slab_state, dt, 1);
   // The staying particles, and the free stream that entered in the step: 3 x 0.02 = 0.06 deep, 1.2
   // rows 0.05 apart of 40 particles along the side: 48 particles.
