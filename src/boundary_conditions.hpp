@@ -114,25 +114,32 @@ double apply_particle_boundaries(const ParticleBoundaries& boundaries, const Par
 
 KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::apply(index_t p, const ParticleState& pt, real_t& impulse_x,
                                                       real_t& impulse_y, index_t& obstacle, double& stopped) const {
-  real_t x = pt.position_x(p);
-  real_t y = pt.position_y(p);
-  const real_t kinetic_before = pt.velocity_x(p) * pt.velocity_x(p) + pt.velocity_y(p) * pt.velocity_y(p);
+  // Most particles meet no rule: they read their position only, and write nothing.
+  const real_t x_moved = pt.position_x(p), y_moved = pt.position_y(p);
+  real_t x = x_moved, y = y_moved;
+  // The kinetic energy a rule takes, 0.5 M (the velocity component it removes)^2, summed here
+  // (times M at the end): each removes a component orthogonal to what is left.
+  real_t removed = 0;
   // Slip walls: mirror, and keep no velocity out of the domain.
   if (x < domain.x_min && side_type[left_side] == BoundaryType::slip_wall) {
     x = 2 * domain.x_min - x;
-    if (pt.velocity_x(p) < 0) pt.velocity_x(p) = 0;
+    const real_t vx = pt.velocity_x(p);
+    if (vx < 0) removed += vx * vx, pt.velocity_x(p) = 0;
   }
   if (x > domain.x_max && side_type[right_side] == BoundaryType::slip_wall) {
     x = 2 * domain.x_max - x;
-    if (pt.velocity_x(p) > 0) pt.velocity_x(p) = 0;
+    const real_t vx = pt.velocity_x(p);
+    if (vx > 0) removed += vx * vx, pt.velocity_x(p) = 0;
   }
   if (y < domain.y_min && side_type[bottom_side] == BoundaryType::slip_wall) {
     y = 2 * domain.y_min - y;
-    if (pt.velocity_y(p) < 0) pt.velocity_y(p) = 0;
+    const real_t vy = pt.velocity_y(p);
+    if (vy < 0) removed += vy * vy, pt.velocity_y(p) = 0;
   }
   if (y > domain.y_max && side_type[top_side] == BoundaryType::slip_wall) {
     y = 2 * domain.y_max - y;
-    if (pt.velocity_y(p) > 0) pt.velocity_y(p) = 0;
+    const real_t vy = pt.velocity_y(p);
+    if (vy > 0) removed += vy * vy, pt.velocity_y(p) = 0;
   }
   // Open sides: whatever is still outside has left the domain through one of them, and stays
   // where it went (no obstacle, no clamp).
@@ -147,6 +154,7 @@ KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::apply(index_t p, const ParticleS
         if (vn < 0) {
           pt.velocity_x(p) -= vn * sd.normal_x;
           pt.velocity_y(p) -= vn * sd.normal_y;
+          removed += vn * vn;
           impulse_x = pt.mass(p) * vn * sd.normal_x;  // into the obstacle
           impulse_y = pt.mass(p) * vn * sd.normal_y;
           obstacle = sd.obstacle;
@@ -156,10 +164,9 @@ KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::apply(index_t p, const ParticleS
     }
     domain.clamp(x, y);  // an obstacle touching a side, a mirror
   }
-  pt.position_x(p) = x;
-  pt.position_y(p) = y;
-  const real_t kinetic_after = pt.velocity_x(p) * pt.velocity_x(p) + pt.velocity_y(p) * pt.velocity_y(p);
-  stopped = 0.5 * double(pt.mass(p)) * double(kinetic_before - kinetic_after);
+  if (x != x_moved) pt.position_x(p) = x;
+  if (y != y_moved) pt.position_y(p) = y;
+  stopped = removed > 0 ? 0.5 * double(pt.mass(p)) * double(removed) : 0.0;
   return hit;
 }
 

@@ -21,6 +21,13 @@ KOKKOS_INLINE_FUNCTION real_t sound_speed(real_t gamma, real_t pressure, real_t 
   return c2 > 0 ? square_root(c2) : real_t(0);
 }
 
+// The same for a perfect gas from its specific internal energy: c^2 = gamma p / rho =
+// gamma (gamma - 1) e, without the division.
+KOKKOS_INLINE_FUNCTION real_t perfect_gas_sound_speed(real_t gamma, real_t specific_energy) {
+  const real_t c2 = gamma * (gamma - 1) * specific_energy;
+  return c2 > 0 ? square_root(c2) : real_t(0);
+}
+
 // von Neumann-Richtmyer (c0, quadratic) + Landshoff (c1, linear) artificial viscosity in its
 // dimensionally consistent form q = rho h (c0 h (div v)^2 - c1 c div v), active in compression only.
 // (The paper's eq. 4 squares rho as well, which does not have units of pressure.)

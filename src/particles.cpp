@@ -136,21 +136,19 @@ index_t count_invalid_gas_states(const ParticleState& particles, real_t gamma) {
   return count_particles(
       "invalid_gas_states", particles.count, KOKKOS_LAMBDA(const index_t k) {
         const real_t p = perfect_gas_pressure(gamma, rho(k), e(k));
-        return !is_valid_gas_state(rho(k), p, signal_speed(vx(k), vy(k), sound_speed(gamma, p, rho(k))));
+        return !is_valid_gas_state(rho(k), p, signal_speed(vx(k), vy(k), perfect_gas_sound_speed(gamma, e(k))));
       });
 }
 
 index_t fastest_particle(const ParticleState& particles, real_t gamma) {
   if (particles.count == 0) return -1;
-  const auto vx = particles.velocity_x, vy = particles.velocity_y, e = particles.specific_energy,
-             rho = particles.density;
+  const auto vx = particles.velocity_x, vy = particles.velocity_y, e = particles.specific_energy;
   using Reducer = Kokkos::MaxLoc<real_t, index_t>;
   typename Reducer::value_type fastest;
   Kokkos::parallel_reduce(
       "fastest_particle", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
       KOKKOS_LAMBDA(const index_t k, typename Reducer::value_type& best) {
-        const real_t p = perfect_gas_pressure(gamma, rho(k), e(k));
-        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p, rho(k)));
+        const real_t speed = signal_speed(vx(k), vy(k), perfect_gas_sound_speed(gamma, e(k)));
         if (speed > best.val || (speed == best.val && k < best.loc)) {
           best.val = speed;
           best.loc = k;
@@ -168,7 +166,7 @@ index_t first_invalid_particle(const ParticleState& particles, real_t gamma) {
       "find_invalid_particle", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
       KOKKOS_LAMBDA(const index_t k, index_t& smallest) {
         const real_t p = perfect_gas_pressure(gamma, rho(k), e(k));
-        const real_t speed = signal_speed(vx(k), vy(k), sound_speed(gamma, p, rho(k)));
+        const real_t speed = signal_speed(vx(k), vy(k), perfect_gas_sound_speed(gamma, e(k)));
         const bool valid = is_valid_gas_state(rho(k), p, speed) && x(k) == x(k) && y(k) == y(k);
         if (!valid && k < smallest) smallest = k;
       },

@@ -227,7 +227,7 @@ std::string Solver::describe_fastest_particle() const {
   double speed = -1;
   if (k >= 0)
     speed = signal_speed(value_at(particles_.velocity_x, k), value_at(particles_.velocity_y, k),
-                         sound_speed(config_.physics.gamma, pressure_at(particles_, k, config_.physics.gamma), value_at(particles_.density, k)));
+                         perfect_gas_sound_speed(config_.physics.gamma, value_at(particles_.specific_energy, k)));
   const double fastest = context.max(speed);
   // The lowest rank holding a particle that fast describes it.
   const int reporting_rank = static_cast<int>(context.min(speed == fastest && k >= 0 ? context.rank() : context.size()));

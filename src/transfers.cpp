@@ -252,7 +252,7 @@ struct UpdateThermodynamics {
     stretch_x(p) *= 1 + dt * dvx_dx;
     stretch_y(p) *= 1 + dt * dvy_dy;
     const real_t rho = density(p), e = specific_energy(p), pressure = perfect_gas_pressure(gamma, rho, e);
-    const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure, rho), cell_size, div_v, c0, c1);
+    const real_t q = artificial_viscosity(rho, perfect_gas_sound_speed(gamma, e), cell_size, div_v, c0, c1);
     // Energy-consistent: the viscous pressure that made this step's forces, so that the heat is
     // exactly the kinetic energy the viscosity removed; the paper's update takes the new one.
     const real_t q_of_work = energy_consistent ? viscosity(p) : q;
@@ -293,7 +293,7 @@ struct UpdateThermodynamicsFromCellMeans {
     const index_t c = cell(p);
     const real_t div_v = cell_mean(cell_sums, c, cell_divergence_volume);
     const real_t rho = density(p), e = specific_energy(p), pressure = perfect_gas_pressure(gamma, rho, e);
-    const real_t q = artificial_viscosity(rho, sound_speed(gamma, pressure, rho), cell_size, div_v, c0, c1);
+    const real_t q = artificial_viscosity(rho, perfect_gas_sound_speed(gamma, e), cell_size, div_v, c0, c1);
     // The cell's mean (P + Q) x V, shared out by volume, is what this particle's share of the force
     // was made of; the paper's update takes the particle's own pressure and the new viscosity.
     const real_t work_pressure = energy_consistent ? cell_mean(cell_sums, c, cell_stress_volume) : pressure + q;
