@@ -79,11 +79,12 @@ class GridBoundaryConditions {
   ObstacleGrid obstacles_;
 };
 
-// After the move (Algorithm 1, step 11, X' = X + dt V-bar, made by the step-10 kernel): a particle that crossed a slip wall is mirrored back and
-// loses its outward normal velocity; one that entered an obstacle is put back on its surface, along
-// the normal, and loses its inward normal velocity. One that crossed an open side (inflow, outflow,
-// far field) is left where it is, outside the domain: the open sides remove or recycle it
-// (open_boundaries.hpp). No particle stays inside an obstacle.
+// After the move (Algorithm 1, step 11, X' = X + dt V-bar, made by the step-10 kernel): a particle
+// that crossed a slip wall is mirrored back and loses its outward normal velocity; one that
+// entered an obstacle is put back on its surface, along the normal, and loses its inward normal
+// velocity. One that crossed an open side (inflow, outflow, far field) is left where it is, outside
+// the domain: the open sides remove or recycle it (open_boundaries.hpp). No particle stays inside
+// an obstacle.
 struct ParticleBoundaries {
   DomainBox domain;
   BoundaryType side_type[num_sides] = {};  // a C array: device code reads it
@@ -103,7 +104,9 @@ struct ParticleBoundaries {
                                     index_t& obstacle, double& stopped) const;
 };
 
-// Algorithm 1, step 11, after the particles have moved by dt V-bar: the rules above for every one.
+// Algorithm 1, step 11, after the particles have moved by dt V-bar: the rules above for every one,
+// and every particle's cell, which the next step's kernels start from (left_the_domain for those
+// that left through an open side: OpenBoundaries::exchange removes or recycles them).
 // With `forces`, adds to each obstacle's force the momentum its surface took from the particles
 // over dt (the inward normal velocity of those that entered it). Returns the kinetic energy the
 // particles lost to slip walls and obstacles (the velocity these rules take).

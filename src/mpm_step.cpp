@@ -83,7 +83,7 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     auto t = timers.scope(Phase::g2pd_particle_update);
     transfers.g2pd_particle_update(particles, settings.thermodynamics, dt);
   }
-  {  // 11. walls, open sides and obstacles
+  {  // 11. walls, open sides and obstacles; the cell map
     auto t = timers.scope(Phase::particle_move);
     const double stopped = apply_particle_boundaries(slab.particle_boundaries(), particles, dt, &s.obstacle_forces);
     s.open_sides.add_boundary_energy(work_of_conditions, stopped);
@@ -100,10 +100,8 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     auto t = timers.scope(Phase::migration);
     s.migration.migrate(s.particles, slab.slab(), slab.decomposition(), slab.context());
   }
-  {  // each particle's cell, which the next step's kernels start from
-    auto t = timers.scope(Phase::cell_map);
-    update_cell_map(slab.geometry(), particles);
-  }
+  // (Each particle's cell, which the next step's kernels start from, comes from the particle
+  // boundaries, or from what added the particle: the open sides, splitting, migration.)
   if (s.merging.enabled()) {  // tiny particles of a cell merged in pairs (needs the cells)
     auto t = timers.scope(Phase::merging);
     s.merging.merge(s.particles);

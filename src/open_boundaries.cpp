@@ -19,12 +19,11 @@ KOKKOS_INLINE_FUNCTION void inward_normal(int side, real_t& nx, real_t& ny) {
   ny = side == bottom_side ? 1 : (side == top_side ? -1 : 0);
 }
 
-// Whether a point lies outside the domain: it has left through a side that is open (the move
-// keeps particles inside at walls and obstacles).
-struct OutsideDomain {
-  DomainBox domain;
-  RealView x, y;
-  KOKKOS_INLINE_FUNCTION bool operator()(const index_t p) const { return domain.outside(x(p), y(p)); }
+// Whether a particle has left the domain, through a side that is open (the particle boundaries
+// keep particles inside at walls and obstacles, and mark those outside: its cell).
+struct LeftTheDomain {
+  IndexView cell;
+  KOKKOS_INLINE_FUNCTION bool operator()(const index_t p) const { return cell(p) == left_the_domain; }
 };
 
 // Rows r >= 0 of a lattice column at phase `phase` (in row spacings) that lie within `rows`
@@ -104,8 +103,8 @@ struct AppendEntering {
       // The free stream's tangential velocity and the inward normal speed.
       const real_t v_normal = s.velocity_x * nx + s.velocity_y * ny;
       const real_t vx = s.velocity_x + (speed - v_normal) * nx, vy = s.velocity_y + (speed - v_normal) * ny;
-      set_free_stream_particle(pt, p, x, y, vx, vy, s, candidates.specific_energy, candidates.particle_mass);
-      pt.cell(p) = 0;  // the cell map is recomputed after migration
+      set_free_stream_particle(pt, p, candidates.slab.geometry, x, y, vx, vy, s, candidates.specific_energy,
+                               candidates.particle_mass);
       pt.id(p) = id;
     }
     ++offset;
@@ -298,10 +297,10 @@ void OpenBoundaries::restore(const std::vector<double>& entry_distance, const Bo
 void OpenBoundaries::exchange(ParticleState& pt, const SlabState& slab_state, real_t dt, long step) {
   if (!any_open_) return;
   {
-    // The particles that have left. (In a scope of its own: `outside` holds the position Views,
-    // which would otherwise stay allocated beside their grown copies when the gas entering below
-    // makes the particle Views grow.)
-    const OutsideDomain outside{DomainBox(slab_state.slab()), pt.position_x, pt.position_y};
+    // The particles that have left. (In a scope of its own: `outside` holds the cell View, which
+    // would otherwise stay allocated beside its grown copy when the gas entering below makes the
+    // particle Views grow.)
+    const LeftTheDomain outside{pt.cell};
     const IndexView leaving = select_indices("open_side_leaving", 0, pt.count, outside);
     const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
     fluxes_.left += totals_of_particles(pt, leaving, 0, num_leaving);
@@ -332,6 +331,7 @@ void OpenBoundaries::recycle(ParticleState& pt, const SlabState& slab_state, con
   recycle.obstacles = slab_state.obstacles().obstacles;
   recycle.has_obstacles = !slab_state.obstacles().obstacles.empty();
   recycle.step = static_cast<std::uint64_t>(step);
+  recycle.grid = slab_state.geometry();
   recycle.list = leaving;
   recycle.pt = pt;
   Kokkos::parallel_for("recycle", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving), recycle);

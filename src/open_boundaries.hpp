@@ -61,13 +61,14 @@ struct EntrySide {
 };
 
 // Gives particle p of `pt` the free-stream state `s` (its specific energy and particle mass too)
-// at (x, y) with velocity (vx, vy): what a particle entering at an open side starts with, whether
-// newly created or recycled.
-KOKKOS_INLINE_FUNCTION void set_free_stream_particle(const ParticleState& pt, index_t p, real_t x, real_t y, real_t vx,
-                                                     real_t vy, const GasState& s, real_t specific_energy,
-                                                     real_t particle_mass) {
+// at (x, y), in its cell of `grid`, with velocity (vx, vy): what a particle entering at an open side
+// starts with, whether newly created or recycled.
+KOKKOS_INLINE_FUNCTION void set_free_stream_particle(const ParticleState& pt, index_t p, const GridGeometry& grid,
+                                                     real_t x, real_t y, real_t vx, real_t vy, const GasState& s,
+                                                     real_t specific_energy, real_t particle_mass) {
   pt.position_x(p) = x;
   pt.position_y(p) = y;
+  pt.cell(p) = grid.cell_of(x, y);
   pt.velocity_x(p) = vx;
   pt.velocity_y(p) = vy;
   pt.mass(p) = particle_mass;
@@ -97,6 +98,7 @@ struct Recycle {
   // Of the step:
   real_t strip_depth[num_sides] = {};
   std::uint64_t step = 0;
+  GridGeometry grid;  // for the particles' cells
   IndexView list;  // the particles that have left
   ParticleState pt;
 
@@ -176,8 +178,8 @@ KOKKOS_INLINE_FUNCTION void Recycle::operator()(const index_t k) const {
     domain.point_inside_side(inflow_side[s], t, depth_fraction * strip_depth[s], x, y);
     if (!(has_obstacles && obstacles(x, y).distance < 0)) break;
   }
-  set_free_stream_particle(pt, p, x, y, free_stream.velocity_x, free_stream.velocity_y, free_stream, specific_energy,
-                           particle_mass);
+  set_free_stream_particle(pt, p, grid, x, y, free_stream.velocity_x, free_stream.velocity_y, free_stream,
+                           specific_energy, particle_mass);
 }
 
 }  // namespace mpmflow

@@ -27,7 +27,7 @@ void find_destinations(const ParticleState& pt, const GridSlab& slab, const Slab
 #endif
 
 // The fields a particle carries to another rank: real(field, column) for each real field, columns
-// counted from 0, and id(field) for the id (the cell map is recomputed on arrival). Returns the
+// counted from 0, and id(field) for the id (the cells are recomputed on arrival). Returns the
 // number of real fields, so that pack and unpack agree on the layout by construction.
 template <class RealField, class IdField>
 int for_each_migrated_field(const ParticleState& pt, const RealField& real, const IdField& id) {
@@ -156,6 +156,7 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
         unpack_field(field, staying, num_arriving, receive_reals, F, column);
       },
       [&](const ParticleIdView& field) { unpack_field(field, staying, num_arriving, receive_ids, 1, 0); });
+  update_cell_map(slab.geometry, pt, staying);  // (cells do not travel: they are local)
   return num_leaving;
 #else
   (void)pt;

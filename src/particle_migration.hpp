@@ -17,7 +17,9 @@ class ParticleMigration {
   // Sends every particle of `particles` whose cell belongs to another rank under `decomposition`
   // to that rank and appends those received. `slab` is the slab the particles were last in (its
   // geometry turns positions into global cells). Returns the number of particles this rank sent.
-  // Cell indices of the particles are left stale: the caller recomputes the cell map.
+  // The arrivals' cells are those of `slab`: right where the decomposition is the one `slab` was
+  // cut by (every step); where it changes (rebalancing), the caller recomputes every cell on the
+  // new slab.
   long migrate(ParticleState& particles, const GridSlab& slab, const SlabDecomposition& decomposition,
                const ParallelContext& context);
 

@@ -121,6 +121,8 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
         rule.halves(pt, p, a, half_length, x0, y0, x1, y1);
         pt.position_x(p) = x0, pt.position_y(p) = y0;
         pt.position_x(q) = x1, pt.position_y(q) = y1;
+        pt.cell(p) = rule.boundaries.grid.cell_of(x0, y0);
+        pt.cell(q) = rule.boundaries.grid.cell_of(x1, y1);
         pt.mass(p) *= real_t(0.5);
         pt.mass(q) = pt.mass(p);
         if (a == 0) {

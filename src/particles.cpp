@@ -115,12 +115,12 @@ RealView particle_pressure(const ParticleState& particles, real_t gamma) {
   return pressure;
 }
 
-void update_cell_map(const GridGeometry& geometry, const ParticleState& particles) {
+void update_cell_map(const GridGeometry& geometry, const ParticleState& particles, index_t first) {
   const auto x = particles.position_x;
   const auto y = particles.position_y;
   const auto cell = particles.cell;
   Kokkos::parallel_for(
-      "update_cell_map", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
+      "update_cell_map", Kokkos::RangePolicy<ExecutionSpace>(first, particles.count),
       KOKKOS_LAMBDA(const index_t p) { cell(p) = geometry.cell_of(x(p), y(p)); });
 }
 

@@ -6,6 +6,10 @@
 
 namespace mpmflow {
 
+// The cell of a particle that has left the domain through an open side, from the move until the
+// open sides remove or recycle it.
+enum ParticleCellMark : index_t { left_the_domain = -1 };
+
 struct ParticleState {
   index_t count = 0;
   RealView position_x, position_y;
@@ -20,7 +24,7 @@ struct ParticleState {
   RealView artificial_viscosity;  // q of the last update, used by the next force P2GD
   // Current / initial length of the particle's domain along x and y (GIMP particle size).
   RealView domain_stretch_x, domain_stretch_y;
-  IndexView cell;                 // local cell containing the particle
+  IndexView cell;                 // local cell containing the particle (or left_the_domain)
   ParticleIdView id;              // stable identity, independent of ordering and of rank
 
   explicit ParticleState(index_t n = 0);
@@ -72,8 +76,9 @@ GasState initial_state_at(const InitialStateConfig& initial, real_t x, real_t y)
 // not store it).
 RealView particle_pressure(const ParticleState& particles, real_t gamma);
 
-// Recomputes every particle's cell from its position.
-void update_cell_map(const GridGeometry& geometry, const ParticleState& particles);
+// Recomputes the cell of every particle from index `first` on from its position. (In a step the
+// particle boundaries set the cells, and what adds particles sets theirs.)
+void update_cell_map(const GridGeometry& geometry, const ParticleState& particles, index_t first = 0);
 
 // Algorithm 1, step 12: the particle arrays grouped by cell, in index order within a cell (the
 // same order on any thread count), so that particles close in space are close in memory.

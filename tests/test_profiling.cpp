@@ -60,7 +60,7 @@ TEST(Profiling, EveryPhaseIsANamedRegion) {
                             Phase::halo_exchange, Phase::boundary_conditions, Phase::grid_momentum_update,
                             Phase::g2p_p2g_velocity_momentum, Phase::grid_remap_velocity,
                             Phase::g2pd_particle_update, Phase::particle_move, Phase::open_sides,
-                            Phase::migration, Phase::cell_map, Phase::reorder})
+                            Phase::migration, Phase::reorder})
     EXPECT_TRUE(regions.count(phase_name(phase))) << "no region " << phase_name(phase);
 }
 
