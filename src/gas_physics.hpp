@@ -64,4 +64,14 @@ KOKKOS_INLINE_FUNCTION bool is_valid_gas_state(real_t density, real_t pressure, 
   return density > 0 && pressure == pressure && signal_speed_value < largest_real;
 }
 
+// A perfect gas's state (density, specific energy, velocity) that is_valid_gas_state accepts for
+// sure, tested without a square root: |v|^2 + c^2 finite implies |v| + c finite. (The converse
+// fails only for speeds beyond 1e154: such a state is in doubt, and is_valid_gas_state decides.)
+KOKKOS_INLINE_FUNCTION bool surely_valid_gas_state(real_t gamma, real_t density, real_t specific_energy, real_t vx,
+                                                   real_t vy) {
+  const real_t pressure = perfect_gas_pressure(gamma, density, specific_energy);
+  const real_t c2 = gamma * (gamma - 1) * specific_energy;
+  return density > 0 && pressure == pressure && vx * vx + vy * vy + (c2 > 0 ? c2 : real_t(0)) < largest_real;
+}
+
 }  // namespace mpmflow

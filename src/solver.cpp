@@ -118,7 +118,10 @@ void Solver::prepare_grid() {
 real_t Solver::stable_time_step() {
   prepare_grid();
   auto t = timers_.scope(Phase::time_step);
-  const bool local_invalid = count_invalid_gas_states(particles_, config_.physics.gamma) > 0;
+  // The P2G checked every particle's state on its way (particles_in_doubt); a pass over them
+  // decides only where it found some in doubt.
+  const bool local_invalid =
+      transfers_->particles_in_doubt() > 0 && count_invalid_gas_states(particles_, config_.physics.gamma) > 0;
   const real_t node_speed = max_node_signal_speed(slab_->fields(), config_.physics.gamma, settings_.node_mass_threshold);
   const real_t max_speed = local_invalid ? largest_real : node_speed;
   const real_t global_max_speed = static_cast<real_t>(context().max(double(max_speed)));

@@ -11,18 +11,29 @@ namespace {
 
 // ---- On-the-fly functors of Algorithm 1 (the paper's I, zeta, eta and theta) ------------------
 
+// The count of particles in doubt (TransferKernels::particles_in_doubt): integer sums, exact in
+// any order.
+using DoubtCounter = Kokkos::Experimental::ScatterView<index_t*, Kokkos::LayoutLeft, DeviceType>;
+
 // P2G(I, M), P2G(I, M Vx), P2G(I, M Vy), and P2G(I, P M / rho) for the nodes' sound speed (the
 // time step, node_signal_speed): GridFields::mass .. pressure_volume. For a perfect gas
-// P M / rho = (gamma - 1) M e: no division.
+// P M / rho = (gamma - 1) M e: no division. The time step's check of the particle states comes
+// with it, since it reads them anyway: a particle not surely valid adds to `in_doubt`.
 struct MassMomentumAndPressureVolume {
   static constexpr int num_components = 4;
-  RealView mass, velocity_x, velocity_y, specific_energy;
+  RealView mass, velocity_x, velocity_y, specific_energy, density;
   real_t gamma;
+  DoubtCounter in_doubt;
   KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, real_t (&value)[4]) const {
+    const real_t vx = velocity_x(p), vy = velocity_y(p), e = specific_energy(p);
     value[0] = mass(p);
-    value[1] = mass(p) * velocity_x(p);
-    value[2] = mass(p) * velocity_y(p);
-    value[3] = (gamma - 1) * mass(p) * specific_energy(p);
+    value[1] = mass(p) * vx;
+    value[2] = mass(p) * vy;
+    value[3] = (gamma - 1) * mass(p) * e;
+    if (!surely_valid_gas_state(gamma, density(p), e, vx, vy)) {
+      auto count = in_doubt.access();
+      count(0) += 1;
+    }
   }
 };
 
@@ -404,7 +415,9 @@ class Transfers final : public TransferKernels {
         gamma_(config.physics.gamma),
         cell_sums_("cell_sums", cell_averaged_strain_ ? geometry.num_cells() : 0, num_cell_sum_columns),
         accumulation_(fields, cell_sums_),
-        shape_(make_shape<Shape>(config, geometry)) {}
+        shape_(make_shape<Shape>(config, geometry)),
+        in_doubt_count_("p2g_particles_in_doubt", 1),
+        in_doubt_(in_doubt_count_) {}
 
   void p2g_mass_momentum_force(const ParticleState& pt) override {
     accumulation_.prepare(pt, geometry_);
@@ -428,9 +441,10 @@ class Transfers final : public TransferKernels {
       p2g_end(accumulation_.cells(), cell_sums_);
     }
     p2g_begin(accumulation_.state(), fields_.state);
+    in_doubt_.reset();
     // Fused: the paper's P2G(M), P2G(M V) and P2GD((P + Q) M / rho) in one pass over the particles.
-    const MassMomentumAndPressureVolume mass_and_momentum{pt.mass, pt.velocity_x, pt.velocity_y,
-                                                          pt.specific_energy, gamma_};
+    const MassMomentumAndPressureVolume mass_and_momentum{pt.mass,   pt.velocity_x, pt.velocity_y,
+                                                          pt.specific_energy, pt.density, gamma_, in_doubt_};
     if (cell_averaged_strain_)
       p2g_and_p2gd("p2g_mass_momentum_force", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
                    accumulation_.state(), GridFields::mass, mass_and_momentum, GridFields::force_x,
@@ -440,6 +454,12 @@ class Transfers final : public TransferKernels {
                    accumulation_.state(), GridFields::mass, mass_and_momentum, GridFields::force_x,
                    InternalForce{pt.specific_energy, pt.artificial_viscosity, pt.mass, pt.density, gamma_});
     p2g_end(accumulation_.state(), fields_.state);
+    Kokkos::Experimental::contribute(in_doubt_count_, in_doubt_);
+  }
+
+  index_t particles_in_doubt() const override {
+    auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), in_doubt_count_);
+    return host(0);
   }
 
   void g2p_p2g_velocity_momentum(const ParticleState& pt, real_t dt) override {
@@ -514,6 +534,8 @@ class Transfers final : public TransferKernels {
   NodeFieldsView cell_sums_;  // (cell, CellSumColumn) with cell-averaged strain
   Accumulation accumulation_;
   Shape shape_;
+  IndexView in_doubt_count_;  // of the last p2g_mass_momentum_force
+  DoubtCounter in_doubt_;
 };
 
 template <class Accumulation>

@@ -31,16 +31,22 @@ class TransferKernels {
 
   // 3. m = P2G(M), mv = P2G(M V), f = P2GD((P + Q) M / rho) into the state columns (zeroed).
   // With numerics/cell_averaged_strain, P + Q is its volume-weighted mean over the particle's cell.
+  // In the same pass, the particles whose state is in doubt (particles_in_doubt).
   virtual void p2g_mass_momentum_force(const ParticleState& particles) = 0;
-  // 6.-8. in one pass: V-bar = G2P(mv' / m), V' = V + dt G2P(f / m) from the per-unit-mass
-  // columns, then mv = P2G(M V') into the remap columns (zeroed).
+  // The particles whose state the last p2g_mass_momentum_force found in doubt (not
+  // surely_valid_gas_state): with none, every particle's state is valid, and the time step needs
+  // no pass of its own to check them; otherwise count_invalid_gas_states decides.
+  virtual index_t particles_in_doubt() const = 0;
+  // 6.-8. in one pass: V' = V + dt G2P(f / m) from the per-unit-mass columns, then mv = P2G(M V')
+  // into the state's momentum columns (zeroed).
   virtual void g2p_p2g_velocity_momentum(const ParticleState& particles, real_t dt) = 0;
-  // 6.-7. alone: V-bar and V'.
+  // 6.-7. alone: V'.
   virtual void g2p_velocity_acceleration(const ParticleState& particles, real_t dt) = 0;
-  // 8. alone: mv = P2G(M V') into the remap columns (zeroed).
+  // 8. alone: mv = P2G(M V') into the state's momentum columns (zeroed).
   virtual void p2g_momentum_remap(const ParticleState& particles) = 0;
-  // 10. grad V = G2PD(mv / m) from the remapped velocity columns; density, energy, pressure,
-  // artificial viscosity and (GIMP) the particle domain's stretches. With
+  // 10. grad V = G2PD(mv / m) from the remapped velocity columns; density, energy, artificial
+  // viscosity and (GIMP) the particle domain's stretches; and, with V-bar = G2P(mv' / m) at the
+  // same stencil, the move X' = X + dt V-bar (the walls, obstacles and sides come after). With
   // numerics/cell_averaged_strain, the volume-weighted mean divergence of the particle's cell
   // changes its density and energy, and that cell's mean P + Q of the force does the work.
   virtual void g2pd_particle_update(const ParticleState& particles, const ThermodynamicConstants& constants,

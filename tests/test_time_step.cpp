@@ -3,9 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
+#include <vector>
 
+#include "gas_physics.hpp"
 #include "particles.hpp"
 #include "solver.hpp"
 
@@ -35,6 +38,28 @@ void disturb(ParticleState& pt, index_t k, real_t vx, real_t mass_factor) {
   auto set = [&](const RealView& field, real_t value) { Kokkos::deep_copy(Kokkos::subview(field, k), value); };
   set(pt.velocity_x, vx);
   set(pt.mass, value_at(pt.mass, k) * mass_factor);
+}
+
+// The P2G's cheap test of the particle states (surely_valid_gas_state) never passes a state the
+// time step's check (is_valid_gas_state) rejects, over ordinary, broken and extreme values; it
+// passes the ordinary ones.
+TEST(TimeStep, ASurelyValidStateIsValid) {
+  const real_t gamma = 1.4, inf = std::numeric_limits<real_t>::infinity(), nan = std::nan("");
+  const std::vector<real_t> values = {0, 1, -1, 1e-300, 1e150, 1e155, 1e300, -1e300, inf, -inf, nan};
+  long surely = 0;
+  for (real_t rho : values)
+    for (real_t e : values)
+      for (real_t vx : values)
+        for (real_t vy : {real_t(0), real_t(2), real_t(1e200), nan}) {
+          if (!surely_valid_gas_state(gamma, rho, e, vx, vy)) continue;
+          ++surely;
+          const real_t p = perfect_gas_pressure(gamma, rho, e);
+          EXPECT_TRUE(is_valid_gas_state(rho, p, signal_speed(vx, vy, perfect_gas_sound_speed(gamma, e))))
+              << "rho " << rho << " e " << e << " v (" << vx << ", " << vy << ")";
+        }
+  EXPECT_GT(surely, 0);
+  EXPECT_TRUE(surely_valid_gas_state(gamma, 1.4, 1.78, 3, -0.5));
+  EXPECT_TRUE(surely_valid_gas_state(gamma, 1e-6, 1e-8, 0, 0));
 }
 
 TEST(TimeStep, ALightParticleWithAnOutlyingVelocityDoesNotSetItAPlacedOneDoes) {
