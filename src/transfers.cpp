@@ -71,7 +71,8 @@ struct InternalForce {
   RealView specific_energy, viscosity, mass, density;
   real_t gamma;
   KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, real_t (&vector)[2][2]) const {
-    const real_t stress_times_volume = (gamma - 1) * mass(p) * specific_energy(p) + viscosity(p) * (mass(p) / density(p));
+    const real_t stress_times_volume =
+        (gamma - 1) * mass(p) * specific_energy(p) + viscosity(p) * (mass(p) / density(p));
     vector[0][0] = stress_times_volume;  // zeta: x force component pairs with d/dx
     vector[0][1] = 0;
     vector[1][0] = 0;                    // eta: y force component pairs with d/dy
@@ -441,10 +442,11 @@ class Transfers final : public TransferKernels {
       p2g_end(accumulation_.cells(), cell_sums_);
     }
     p2g_begin(accumulation_.state(), fields_.state);
-    in_doubt_.reset();
+    Kokkos::deep_copy(in_doubt_count_, 0);
+    in_doubt_.reset_except(in_doubt_count_);
     // Fused: the paper's P2G(M), P2G(M V) and P2GD((P + Q) M / rho) in one pass over the particles.
-    const MassMomentumAndPressureVolume mass_and_momentum{pt.mass,   pt.velocity_x, pt.velocity_y,
-                                                          pt.specific_energy, pt.density, gamma_, in_doubt_};
+    const MassMomentumAndPressureVolume mass_and_momentum{
+        pt.mass, pt.velocity_x, pt.velocity_y, pt.specific_energy, pt.density, gamma_, in_doubt_};
     if (cell_averaged_strain_)
       p2g_and_p2gd("p2g_mass_momentum_force", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
                    accumulation_.state(), GridFields::mass, mass_and_momentum, GridFields::force_x,
@@ -454,7 +456,7 @@ class Transfers final : public TransferKernels {
                    accumulation_.state(), GridFields::mass, mass_and_momentum, GridFields::force_x,
                    InternalForce{pt.specific_energy, pt.artificial_viscosity, pt.mass, pt.density, gamma_});
     p2g_end(accumulation_.state(), fields_.state);
-    Kokkos::Experimental::contribute(in_doubt_count_, in_doubt_);
+    in_doubt_.contribute_into(in_doubt_count_);
   }
 
   index_t particles_in_doubt() const override {

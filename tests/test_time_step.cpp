@@ -11,6 +11,7 @@
 #include "gas_physics.hpp"
 #include "particles.hpp"
 #include "solver.hpp"
+#include "transfers.hpp"
 
 namespace mpmflow {
 namespace {
@@ -60,6 +61,30 @@ TEST(TimeStep, ASurelyValidStateIsValid) {
   EXPECT_GT(surely, 0);
   EXPECT_TRUE(surely_valid_gas_state(gamma, 1.4, 1.78, 3, -0.5));
   EXPECT_TRUE(surely_valid_gas_state(gamma, 1e-6, 1e-8, 0, 0));
+}
+
+// Step 3's P2G counts the particles in doubt of its own pass, with each P2G strategy: none, then
+// the one given a negative density, then none again once it is mended.
+TEST(TimeStep, TheP2GCountsTheParticlesInDoubtOfItsOwnPass) {
+  for (const P2GStrategy strategy : {P2GStrategy::duplicated, P2GStrategy::atomic, P2GStrategy::sorted}) {
+    CaseConfig config = sod_case();
+    config.numerics.p2g = strategy;
+    const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+    const ParticleState pt = create_initial_particles(config, slab);
+    const GridFields fields(slab.geometry);
+    const auto transfers = make_transfer_kernels(config, slab.geometry, fields);
+    const index_t victim = 17;
+    const real_t density = value_at(pt.density, victim);
+    auto set_density = [&](real_t value) { Kokkos::deep_copy(Kokkos::subview(pt.density, victim), value); };
+    transfers->p2g_mass_momentum_force(pt);
+    EXPECT_EQ(transfers->particles_in_doubt(), 0);
+    set_density(-1);
+    transfers->p2g_mass_momentum_force(pt);
+    EXPECT_EQ(transfers->particles_in_doubt(), 1);
+    set_density(density);
+    transfers->p2g_mass_momentum_force(pt);
+    EXPECT_EQ(transfers->particles_in_doubt(), 0) << "the count of an earlier pass stayed";
+  }
 }
 
 TEST(TimeStep, ALightParticleWithAnOutlyingVelocityDoesNotSetItAPlacedOneDoes) {
