@@ -24,6 +24,31 @@ void find_destinations(const ParticleState& pt, const GridSlab& slab, const Slab
         destination(p) = owners.owner_of_cell(slab.global_cell_along(axis, x(p), y(p)));
       });
 }
+
+// The exchange of a migration: rank r gets send[send_offsets[r] ..) (send_counts[r] items of
+// `type`) and puts what r sends it at receive + receive_offsets[r]. With `neighbours_only` (no
+// count but those of the neighbouring slabs, rank - 1 and rank + 1, is nonzero), point to point
+// with those two; otherwise MPI_Alltoallv. The same layout either way.
+template <class T>
+void exchange(const T* send, const std::vector<int>& send_counts, const std::vector<int>& send_offsets, T* receive,
+              const std::vector<int>& receive_counts, const std::vector<int>& receive_offsets, MPI_Datatype type,
+              bool neighbours_only, int rank, MPI_Comm comm) {
+  const int ranks = static_cast<int>(send_counts.size());
+  if (!neighbours_only) {
+    MPI_Alltoallv(send, send_counts.data(), send_offsets.data(), type, receive, receive_counts.data(),
+                  receive_offsets.data(), type, comm);
+    return;
+  }
+  std::vector<MPI_Request> requests;
+  for (const int r : {rank - 1, rank + 1}) {
+    if (r < 0 || r >= ranks) continue;
+    requests.emplace_back();
+    MPI_Irecv(receive + receive_offsets[r], receive_counts[r], type, r, 0, comm, &requests.back());
+    requests.emplace_back();
+    MPI_Isend(send + send_offsets[r], send_counts[r], type, r, 0, comm, &requests.back());
+  }
+  MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
+}
 #endif
 
 // The fields a particle carries to another rank: real(field, column) for each real field, columns
@@ -100,9 +125,21 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
       pt, [&](const RealView& field, const int column) { pack_field(field, send_order, num_leaving, send_reals, F, column); },
       [&](const ParticleIdView& field) { pack_field(field, send_order, num_leaving, send_ids, 1, 0); });
 
-  // Counts, then data.
+  // Counts, then data: with the neighbouring slabs alone where every rank sends only to them (as
+  // in a step, where no particle moves more than a cell), with every rank otherwise (recycling
+  // along a side cut into slabs, rebalancing). One reduction decides, in place of an all-to-all of
+  // the counts.
+  bool local_neighbours_only = true;
+  for (int r = 0; r < ranks; ++r)
+    if (send_counts[r] > 0 && r != rank - 1 && r != rank + 1) local_neighbours_only = false;
+  last_exchange_neighbours_only_ = context.min(local_neighbours_only ? 1.0 : 0.0) > 0;
   std::vector<int> receive_counts(ranks, 0), receive_offsets(ranks + 1, 0);
-  MPI_Alltoall(send_counts.data(), 1, MPI_INT, receive_counts.data(), 1, MPI_INT, context.comm());
+  {
+    std::vector<int> one(ranks, 1), at(ranks + 1);
+    for (int r = 0; r <= ranks; ++r) at[r] = r;
+    exchange(send_counts.data(), one, at, receive_counts.data(), one, at, MPI_INT, last_exchange_neighbours_only_,
+             rank, context.comm());
+  }
   for (int r = 0; r < ranks; ++r) receive_offsets[r + 1] = receive_offsets[r] + receive_counts[r];
   const index_t num_arriving = receive_offsets[ranks];
   RealView receive_reals("migration_receive_reals", static_cast<size_t>(num_arriving) * F);
@@ -126,13 +163,13 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
       return out;
     };
     const MPI_Datatype real_type = sizeof(real_t) == 8 ? MPI_DOUBLE : MPI_FLOAT;
-    MPI_Alltoallv(direct ? send_reals.data() : send_reals_host.data(), scaled(send_counts, F).data(),
-                  scaled(send_offsets, F).data(), real_type,
-                  direct ? receive_reals.data() : receive_reals_host.data(), scaled(receive_counts, F).data(),
-                  scaled(receive_offsets, F).data(), real_type, context.comm());
-    MPI_Alltoallv(direct ? send_ids.data() : send_ids_host.data(), send_counts.data(), send_offsets.data(),
-                  MPI_INT64_T, direct ? receive_ids.data() : receive_ids_host.data(), receive_counts.data(),
-                  receive_offsets.data(), MPI_INT64_T, context.comm());
+    const bool neighbours = last_exchange_neighbours_only_;
+    exchange(direct ? send_reals.data() : send_reals_host.data(), scaled(send_counts, F), scaled(send_offsets, F),
+             direct ? receive_reals.data() : receive_reals_host.data(), scaled(receive_counts, F),
+             scaled(receive_offsets, F), real_type, neighbours, rank, context.comm());
+    exchange(direct ? send_ids.data() : send_ids_host.data(), send_counts, send_offsets,
+             direct ? receive_ids.data() : receive_ids_host.data(), receive_counts, receive_offsets, MPI_INT64_T,
+             neighbours, rank, context.comm());
     if (!direct) {
       Kokkos::deep_copy(receive_reals, receive_reals_host);
       Kokkos::deep_copy(receive_ids, receive_ids_host);

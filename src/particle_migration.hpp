@@ -22,9 +22,13 @@ class ParticleMigration {
   // new slab.
   long migrate(ParticleState& particles, const GridSlab& slab, const SlabDecomposition& decomposition,
                const ParallelContext& context);
+  // Whether the last migrate() exchanged with the neighbouring slabs alone (every rank sent only
+  // to rank - 1 and rank + 1), not with every rank.
+  bool last_exchange_neighbours_only() const { return last_exchange_neighbours_only_; }
 
  private:
   IndexView destination_;
+  bool last_exchange_neighbours_only_ = false;
 };
 
 }  // namespace mpmflow

@@ -101,16 +101,30 @@ void for_each_tagged_field(const ParticleState& pt, F&& f) {
   });
 }
 
-// Particles of this rank anywhere in the domain (most belong to other ranks), their fields
-// functions of their ids; ids are rank * 1000 + index.
-ParticleState scattered_particles(const CaseConfig& config, int rank, index_t n) {
+// Where the particle `id` was made along x: anywhere in the domain, or, with `near` (slabs along
+// x), within half a cell of the slab of the rank that made it (id / 1000), as after a step.
+real_t made_x(const CaseConfig& config, particle_id_t id, const SlabDecomposition* near) {
+  const DomainConfig& domain = config.domain;
+  double low = domain.x_min, high = domain.x_max;
+  if (near) {
+    const double h = (domain.x_max - domain.x_min) / domain.cells_x;
+    const int r = static_cast<int>(id / 1000);
+    low = std::max(domain.x_min, domain.x_min + h * (near->begin(r) - 0.5));
+    high = std::min(domain.x_max, domain.x_min + h * (near->end(r) + 0.5));
+  }
+  return real_t(low + (high - low) * counter_uniform(7, id, 0, 0));
+}
+
+// Particles of this rank anywhere in the domain (most belong to other ranks), or near its slab
+// (made_x), their fields functions of their ids; ids are rank * 1000 + index.
+ParticleState scattered_particles(const CaseConfig& config, int rank, index_t n, const SlabDecomposition* near) {
   ParticleState pt(n);
   auto x = Kokkos::create_mirror_view(pt.position_x);
   auto y = Kokkos::create_mirror_view(pt.position_y);
   auto id = Kokkos::create_mirror_view(pt.id);
   for (index_t k = 0; k < n; ++k) {
     id(k) = rank * 1000 + k;
-    x(k) = config.domain.x_min + (config.domain.x_max - config.domain.x_min) * counter_uniform(7, id(k), 0, 0);
+    x(k) = made_x(config, id(k), near);
     y(k) = config.domain.y_min + (config.domain.y_max - config.domain.y_min) * counter_uniform(7, id(k), 0, 1);
   }
   Kokkos::deep_copy(pt.position_x, x);
@@ -124,17 +138,23 @@ ParticleState scattered_particles(const CaseConfig& config, int rank, index_t n)
   return pt;
 }
 
-// Migrates particles made on the slabs of `from` to the slabs of `to`, and checks the result.
-void check_migration(const CaseConfig& config, const SlabDecomposition& from, const SlabDecomposition& to) {
+// Migrates particles made on the slabs of `from` (anywhere, or with `near` within half a cell of
+// their rank's slab) to the slabs of `to`, and checks the result.
+void check_migration(const CaseConfig& config, const SlabDecomposition& from, const SlabDecomposition& to,
+                     bool near = false) {
   const ParallelContext context;
   const int rank = context.rank(), ranks = context.size();
   const index_t made = 40 + 7 * rank;
-  ParticleState pt = scattered_particles(config, rank, made);
+  ParticleState pt = scattered_particles(config, rank, made, near ? &from : nullptr);
   const GridSlab slab = make_grid_slab(config.domain, from.axis, from.begin(rank), from.end(rank));
   update_cell_map(slab.geometry, pt);  // as a step leaves them
   ParticleMigration migration;
   const long sent = migration.migrate(pt, slab, to, context);
   if (ranks > 1) EXPECT_GT(context.sum(sent), 0) << "nothing to check: no particle moved";
+  // Near their slabs, the particles go to the neighbouring ones, point to point; scattered over
+  // more than 2 slabs, some go further, and every rank exchanges with every other.
+  if (ranks > 1)
+    EXPECT_EQ(migration.last_exchange_neighbours_only(), near || ranks == 2) << "rank " << rank;
 
   // Every particle is on the rank owning its cell under `to`, with the fields it left with.
   const GridSlab new_slab = make_grid_slab(config.domain, to.axis, to.begin(rank), to.end(rank));
@@ -152,9 +172,7 @@ void check_migration(const CaseConfig& config, const SlabDecomposition& from, co
   long misplaced = 0, wrong_fields = 0;
   for (index_t p = 0; p < pt.count; ++p) {
     if (to.owner_of_cell(new_slab.global_cell_along(to.axis, x(p), y(p))) != rank) ++misplaced;
-    if (x(p) != real_t(config.domain.x_min + (config.domain.x_max - config.domain.x_min) *
-                                              counter_uniform(7, id(p), 0, 0)))
-      ++wrong_fields;
+    if (x(p) != made_x(config, id(p), near ? &from : nullptr)) ++wrong_fields;
   }
   for_each_tagged_field(pt, [&](int k, const RealView& field) {
     auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), field);
@@ -195,6 +213,13 @@ TEST(ParticleMigration, ParticlesReachTheOwnersOfTheirCellsAlongY) {
   const CaseConfig config = config_for(4, 4 * ranks, 1);
   const SlabDecomposition d = SlabDecomposition::even(config, ranks);
   check_migration(config, d, d);
+}
+
+TEST(ParticleMigration, ParticlesNearTheirSlabsGoToTheNeighboursPointToPoint) {
+  const int ranks = ParallelContext().size();
+  const CaseConfig config = config_for(4 * ranks, 3, 0);
+  const SlabDecomposition d = SlabDecomposition::even(config, ranks);
+  check_migration(config, d, d, /*near=*/true);
 }
 
 TEST(ParticleMigration, ParticlesFollowTheSlabsWhenTheyMove) {
