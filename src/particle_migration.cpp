@@ -104,16 +104,21 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
 
   // Leaving particles grouped by destination, in index order within each group (a counting sort
-  // of the few leaving particles on the host).
+  // of the few leaving particles on the host: their destinations are gathered first, so that only
+  // they cross to the host, not every particle's).
+  IndexView leaving_destination("migration_leaving_destination", num_leaving);
+  Kokkos::parallel_for(
+      "migration_leaving_destination", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving),
+      KOKKOS_LAMBDA(const index_t k) { leaving_destination(k) = destination(leaving(k)); });
   auto leaving_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), leaving);
-  auto destination_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), destination);
+  auto destination_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), leaving_destination);
   std::vector<int> send_counts(ranks, 0), send_offsets(ranks + 1, 0);
-  for (index_t k = 0; k < num_leaving; ++k) ++send_counts[destination_host(leaving_host(k))];
+  for (index_t k = 0; k < num_leaving; ++k) ++send_counts[destination_host(k)];
   for (int r = 0; r < ranks; ++r) send_offsets[r + 1] = send_offsets[r] + send_counts[r];
   HostIndexView send_order_host("migration_send_order", num_leaving);
   {
     std::vector<int> next(send_offsets.begin(), send_offsets.end() - 1);
-    for (index_t k = 0; k < num_leaving; ++k) send_order_host(next[destination_host(leaving_host(k))]++) = leaving_host(k);
+    for (index_t k = 0; k < num_leaving; ++k) send_order_host(next[destination_host(k)]++) = leaving_host(k);
   }
   const IndexView send_order = Kokkos::create_mirror_view_and_copy(MemorySpace(), send_order_host);
 
