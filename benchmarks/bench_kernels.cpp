@@ -93,10 +93,10 @@ struct RunSpec {
            "/" + shape + "/" + p2g + "/" + (fused ? "fused" : "unfused");
   }
   std::string label() const {
-    return shape + ", " + std::to_string(ppc_axis * ppc_axis) + " ppc, " +
-           (reorder_interval == 0 ? std::string("random order")
-            : reorder_interval == 1 ? std::string("reordered every step")
-                                    : "reordered every " + std::to_string(reorder_interval) + " steps") + ", P2G " + p2g +
+    const std::string order = reorder_interval == 0   ? std::string("random order")
+                              : reorder_interval == 1 ? std::string("reordered every step")
+                                                      : "reordered every " + std::to_string(reorder_interval) + " steps";
+    return shape + ", " + std::to_string(ppc_axis * ppc_axis) + " ppc, " + order + ", P2G " + p2g +
            (fused ? "" : ", unfused");
   }
 };

@@ -17,8 +17,8 @@ void reset_grid(const GridFields& fields) {
 }
 
 void reset_momentum(const GridFields& fields) {
-  Kokkos::deep_copy(Kokkos::subview(fields.state, Kokkos::ALL, std::make_pair(int(GridFields::momentum_x), int(GridFields::momentum_y) + 1)),
-                    real_t(0));
+  const auto momentum_columns = std::make_pair(int(GridFields::momentum_x), int(GridFields::momentum_y) + 1);
+  Kokkos::deep_copy(Kokkos::subview(fields.state, Kokkos::ALL, momentum_columns), real_t(0));
 }
 
 real_t max_node_signal_speed(const GridFields& fields, real_t gamma, real_t mass_threshold) {

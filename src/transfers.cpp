@@ -468,14 +468,15 @@ class Transfers final : public TransferKernels {
     p2g_begin(accumulation_.state(), fields_.state);
     g2p_then_p2g("g2p_p2g_velocity_momentum", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
                  NodeColumns<2>{fields_.per_unit_mass, GridFields::acceleration_x},
-                 AccelerateThenCarryMomentum{Accelerate{pt.velocity_x, pt.velocity_y, dt}, pt.mass}, accumulation_.state(),
-                 GridFields::momentum_x);
+                 AccelerateThenCarryMomentum{Accelerate{pt.velocity_x, pt.velocity_y, dt}, pt.mass},
+                 accumulation_.state(), GridFields::momentum_x);
     p2g_end(accumulation_.state(), fields_.state);
   }
 
   void g2p_velocity_acceleration(const ParticleState& pt, real_t dt) override {
     g2p("g2p_velocity_acceleration", current_shape(shape_, pt), pt.locations(), ParticleBatches{pt.count},
-        NodeColumns<2>{fields_.per_unit_mass, GridFields::acceleration_x}, Accelerate{pt.velocity_x, pt.velocity_y, dt});
+        NodeColumns<2>{fields_.per_unit_mass, GridFields::acceleration_x},
+        Accelerate{pt.velocity_x, pt.velocity_y, dt});
   }
 
   void p2g_momentum_remap(const ParticleState& pt) override {
