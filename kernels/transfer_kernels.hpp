@@ -80,6 +80,10 @@ struct ColouredCells {
   IndexView cell_offset;
   IndexView particle;
   index_t cells_x = 0, cells_y = 0;
+  // A team of threads per tile (for_each_particle_stencil below): the GPU path. One thread per
+  // tile, with batched stencils, where the particles are in host memory.
+  bool teams = !std::is_same<MemorySpace, Kokkos::HostSpace>::value;
+  int team_size = 0;  // threads per team; 0: Kokkos chooses (the tests ask for 2 on CPUs)
 };
 
 // All particles, for the fast traversal (for_each_particle_stencil below): batched stencils on
@@ -197,7 +201,8 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 
 // The same, tile by tile: the cells are grouped in tiles of colour_tile_x x colour_tile_y cells
 // and the tiles in four colours (2 x 2); the tiles of one colour run in parallel, one thread per
-// tile walking its cells row by row and each cell's particles in order. A particle of cell
+// tile walking its cells row by row and each cell's particles in order (walk_tiles), or one team
+// per tile (walk_tiles_in_teams, the GPU path). A particle of cell
 // (ci, cj) reaches nodes ci - r + 1 .. ci + r (r = Shape::colour_period / 2), so two tiles of one
 // colour, a tile apart, share no node when the tile is wider and taller than 2 r - 2 cells. Every
 // node's sum so comes in an order fixed by the cells and the particle order alone: the same bits
@@ -208,11 +213,10 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 constexpr int colour_tile_x = 64;
 constexpr int colour_tile_y = 4;
 
+// One thread per tile (the CPU path, cells.teams false).
 template <class Shape, class Body>
-void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
-                               const ColouredCells& cells, const Body& body) {
-  static_assert(colour_tile_x > Shape::colour_period - 2 && colour_tile_y > Shape::colour_period - 2,
-                "tiles of one colour must not share a node");
+void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& particles,
+                const ColouredCells& cells, const Body& body) {
   const auto x = particles.x;
   const auto y = particles.y;
   const auto cell = particles.cell;
@@ -254,6 +258,64 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
           }
         });
   }
+}
+
+// A team of threads per tile (the GPU path, cells.teams true). Within its tile the team takes the
+// cells in colour_period^2 sub-colours, one after the other; the cells of one sub-colour,
+// colour_period apart, share no node, and a thread takes each with its particles in order. Every
+// node's sum so comes in an order fixed by the cells and the particle order alone, as in
+// walk_tiles (but another order than walk_tiles': the two agree to round-off). The writes go
+// straight to the node fields; staging the tile's nodes in scratch memory is not done yet.
+template <class Shape, class Body>
+void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLocations& particles,
+                         const ColouredCells& cells, const Body& body) {
+  using Team = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
+  constexpr index_t P = Shape::colour_period;
+  const auto x = particles.x;
+  const auto y = particles.y;
+  const auto cell = particles.cell;
+  const index_t cells_x = cells.cells_x, cells_y = cells.cells_y;
+  const index_t tiles_x = (cells_x + colour_tile_x - 1) / colour_tile_x;
+  const index_t tiles_y = (cells_y + colour_tile_y - 1) / colour_tile_y;
+  const IndexView offset = cells.cell_offset, order = cells.particle;
+  for (int colour = 0; colour < 4; ++colour) {
+    const index_t a = colour % 2, b = colour / 2;
+    const index_t columns = (tiles_x - a + 1) / 2, rows = (tiles_y - b + 1) / 2;
+    if (columns <= 0 || rows <= 0) continue;
+    const auto policy = cells.team_size > 0 ? Kokkos::TeamPolicy<ExecutionSpace>(columns * rows, cells.team_size)
+                                            : Kokkos::TeamPolicy<ExecutionSpace>(columns * rows, Kokkos::AUTO);
+    Kokkos::parallel_for(label, policy, KOKKOS_LAMBDA(const Team& team) {
+      const index_t k = team.league_rank();
+      const index_t tile_i = a + 2 * (k % columns), tile_j = b + 2 * (k / columns);
+      const index_t ci_begin = tile_i * colour_tile_x, cj_begin = tile_j * colour_tile_y;
+      const index_t ci_end = ci_begin + colour_tile_x < cells_x ? ci_begin + colour_tile_x : cells_x;
+      const index_t cj_end = cj_begin + colour_tile_y < cells_y ? cj_begin + colour_tile_y : cells_y;
+      for (index_t sub = 0; sub < P * P; ++sub) {
+        const index_t ci_first = ci_begin + sub % P, cj_first = cj_begin + sub / P;
+        const index_t nx = ci_first < ci_end ? (ci_end - ci_first + P - 1) / P : 0;
+        const index_t ny = cj_first < cj_end ? (cj_end - cj_first + P - 1) / P : 0;
+        Kokkos::parallel_for(Kokkos::TeamThreadRange(team, nx * ny), [&](const index_t m) {
+          const index_t c = ci_first + P * (m % nx) + cells_x * (cj_first + P * (m / nx));
+          for (index_t s = offset(c); s < offset(c + 1); ++s) {
+            const index_t p = order(s);
+            body(p, shape(p, cell(p), x(p), y(p)));
+          }
+        });
+        team.team_barrier();
+      }
+    });
+  }
+}
+
+template <class Shape, class Body>
+void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
+                               const ColouredCells& cells, const Body& body) {
+  static_assert(colour_tile_x > Shape::colour_period - 2 && colour_tile_y > Shape::colour_period - 2,
+                "tiles of one colour must not share a node");
+  if (cells.teams)
+    walk_tiles_in_teams(label, shape, particles, cells, body);
+  else
+    walk_tiles(label, shape, particles, cells, body);
 }
 
 // Runs body(p) for every particle p, without a stencil: all particles at once, or (ColouredCells)

@@ -186,8 +186,28 @@ struct StoreValueAndGradient {
 using Dup = Kokkos::Experimental::ScatterDuplicated;
 using Atomic = Kokkos::Experimental::ScatterNonDuplicated;
 
-// The sorted, coloured P2G (no ScatterView): the third accumulation mode under test.
+// The sorted, coloured P2G (no ScatterView): the third accumulation mode under test, one thread
+// per tile (the CPU path), or a team per tile (ColouredTeams: the GPU path, run here on the CPU).
 struct Coloured {};
+struct ColouredTeams {};
+template <class D>
+constexpr bool is_coloured = std::is_same<D, Coloured>::value || std::is_same<D, ColouredTeams>::value;
+
+// The cell order of the particles `d` on `g`, and the coloured traversal of mode D over it.
+struct ColouredTraversal {
+  CellOrder order;
+  ColouredCells cells;
+  template <class D>
+  static ColouredTraversal of(const GridGeometry& g, const DeviceParticles& d) {
+    ColouredTraversal t;
+    t.order.build(d.where.cell, d.count, g.num_cells());
+    t.cells = ColouredCells{t.order.cell_offset(), t.order.particle(), g.cells_x(), g.cells_y()};
+    t.cells.teams = std::is_same<D, ColouredTeams>::value;
+    // Teams of as many threads as there are (up to 2): the sub-colours' exclusive writes under test.
+    t.cells.team_size = Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 2 : 1;
+    return t;
+  }
+};
 // The duplicated ScatterView with the fast traversal (ParticleBatches: batched stencils on CPUs);
 // the other ScatterView modes take the reference traversal, one particle at a time.
 struct Batched {};
@@ -204,17 +224,15 @@ auto all_of(const DeviceParticles& d) {
 }
 
 // Runs P2G of `functor` into a fresh (nodes x columns) View with a ScatterView of mode D, or
-// colour by colour for D = Coloured.
+// colour by colour for the coloured modes.
 template <class D, bool derivative, class Shape, class Functor>
 NodeFieldsView run_p2g(const Shape& shape, const DeviceParticles& d, int columns, const Functor& f) {
   NodeFieldsView fields("fields", shape.grid.geometry.num_nodes(), columns);
-  if constexpr (std::is_same<D, Coloured>::value) {
-    CellOrder order;
-    order.build(d.where.cell, d.count, shape.grid.geometry.num_cells());
-    const ColouredCells cells{order.cell_offset(), order.particle(), shape.grid.geometry.cells_x(), shape.grid.geometry.cells_y()};
+  if constexpr (is_coloured<D>) {
+    const ColouredTraversal t = ColouredTraversal::of<D>(shape.grid.geometry, d);
     DirectNodeAccess direct{fields};
-    if constexpr (derivative) p2gd("test_p2gd", shape, d.where, cells, direct, 0, f);
-    else p2g("test_p2g", shape, d.where, cells, direct, 0, f);
+    if constexpr (derivative) p2gd("test_p2gd", shape, d.where, t.cells, direct, 0, f);
+    else p2g("test_p2g", shape, d.where, t.cells, direct, 0, f);
     return fields;
   } else {
     NodeScatterView<DuplicationOf<D>> scatter(fields);
@@ -238,13 +256,16 @@ using Configs =
     ::testing::Types<Config<Dup, MakeLinear>, Config<Atomic, MakeLinear>, Config<Coloured, MakeLinear>,
                      Config<Batched, MakeLinear>, Config<Dup, MakeGimp>, Config<Atomic, MakeGimp>,
                      Config<Coloured, MakeGimp>, Config<Batched, MakeGimp>, Config<Dup, MakeBSpline>,
-                     Config<Atomic, MakeBSpline>, Config<Coloured, MakeBSpline>, Config<Batched, MakeBSpline>>;
+                     Config<Atomic, MakeBSpline>, Config<Coloured, MakeBSpline>, Config<Batched, MakeBSpline>,
+                     Config<ColouredTeams, MakeLinear>, Config<ColouredTeams, MakeGimp>,
+                     Config<ColouredTeams, MakeBSpline>>;
 struct ConfigNames {
   template <class C>
   static std::string GetName(int) {
     using D = typename C::Duplication;
     const char* mode = std::is_same<D, Dup>::value        ? "_duplicated"
                        : std::is_same<D, Coloured>::value ? "_sorted"
+                       : std::is_same<D, ColouredTeams>::value ? "_sorted_teams"
                        : std::is_same<D, Batched>::value  ? "_batched"
                                                           : "_atomic";
     return std::string(C::MakeShape::name) + mode;
@@ -541,12 +562,10 @@ TYPED_TEST(TransferKernels, FusedG2PThenP2GEqualsTheTwoKernels) {
   RealView fused_value("fused_value", d.count);
   NodeFieldsView fused("fused", g.num_nodes(), 1);
   const StoreValueAndWeighByMass update{fused_value, d.mass};
-  if constexpr (std::is_same<typename TypeParam::Duplication, Coloured>::value) {
-    CellOrder order;
-    order.build(d.where.cell, d.count, g.num_cells());
-    const ColouredCells cells{order.cell_offset(), order.particle(), g.cells_x(), g.cells_y()};
+  if constexpr (is_coloured<typename TypeParam::Duplication>) {
+    const ColouredTraversal t = ColouredTraversal::of<typename TypeParam::Duplication>(g, d);
     DirectNodeAccess direct{fused};
-    g2p_then_p2g("test_fused", shape, d.where, cells, NodeColumn{nodal}, update, direct, 0);
+    g2p_then_p2g("test_fused", shape, d.where, t.cells, NodeColumn{nodal}, update, direct, 0);
   } else {
     using D = typename TypeParam::Duplication;
     NodeScatterView<DuplicationOf<D>> scatter(fused);
