@@ -260,42 +260,88 @@ void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& 
   }
 }
 
-// A team of threads per tile (the GPU path, cells.teams true). Within its tile the team takes the
-// cells in colour_period^2 sub-colours, one after the other; the cells of one sub-colour,
-// colour_period apart, share no node, and a thread takes each with its particles in order. Every
-// node's sum so comes in an order fixed by the cells and the particle order alone, as in
-// walk_tiles (but another order than walk_tiles': the two agree to round-off). The writes go
-// straight to the node fields; staging the tile's nodes in scratch memory is not done yet.
+// A body that writes nothing but node fields, through a DirectNodeAccess `scatter` (P2G, P2GD),
+// marked by a member type only_writes_nodes: a team can accumulate its tile's nodes in scratch
+// memory for it (TeamTile).
+template <class Body, class = void>
+struct OnlyWritesNodes : std::false_type {};
+template <class Body>
+struct OnlyWritesNodes<Body, std::void_t<typename Body::only_writes_nodes>>
+    : std::is_same<decltype(std::declval<Body&>().scatter), DirectNodeAccess> {};
+
+// What a team does with a tile of the coloured traversal on GPUs (walk_tiles_in_teams). The team
+// takes the tile's cells in colour_period^2 sub-colours, one after the other; the cells of one
+// sub-colour, colour_period apart, share no node, and a thread takes each with its particles in
+// order. Every node's sum so comes in an order fixed by the cells and the particle order alone, as
+// in walk_tiles (but another order than walk_tiles': the two agree to round-off). A body that
+// only writes nodes adds into the tile's nodes staged in scratch memory (the nodes its particles
+// reach: window_x x window_y from (ci_begin - r + 1, cj_begin - r + 1)), which the team adds to
+// the node fields once at the end; another (the fused G2P + remap P2G, which reads nodes too)
+// writes the node fields directly.
 template <class Shape, class Body>
-void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLocations& particles,
-                         const ColouredCells& cells, const Body& body) {
+struct TeamTile {
   using Team = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
-  constexpr index_t P = Shape::colour_period;
-  const auto x = particles.x;
-  const auto y = particles.y;
-  const auto cell = particles.cell;
-  const index_t cells_x = cells.cells_x, cells_y = cells.cells_y;
-  const index_t tiles_x = (cells_x + colour_tile_x - 1) / colour_tile_x;
-  const index_t tiles_y = (cells_y + colour_tile_y - 1) / colour_tile_y;
-  const IndexView offset = cells.cell_offset, order = cells.particle;
-  for (int colour = 0; colour < 4; ++colour) {
-    const index_t a = colour % 2, b = colour / 2;
-    const index_t columns = (tiles_x - a + 1) / 2, rows = (tiles_y - b + 1) / 2;
-    if (columns <= 0 || rows <= 0) continue;
-    const auto policy = cells.team_size > 0 ? Kokkos::TeamPolicy<ExecutionSpace>(columns * rows, cells.team_size)
-                                            : Kokkos::TeamPolicy<ExecutionSpace>(columns * rows, Kokkos::AUTO);
-    Kokkos::parallel_for(label, policy, KOKKOS_LAMBDA(const Team& team) {
-      const index_t k = team.league_rank();
-      const index_t tile_i = a + 2 * (k % columns), tile_j = b + 2 * (k / columns);
-      const index_t ci_begin = tile_i * colour_tile_x, cj_begin = tile_j * colour_tile_y;
-      const index_t ci_end = ci_begin + colour_tile_x < cells_x ? ci_begin + colour_tile_x : cells_x;
-      const index_t cj_end = cj_begin + colour_tile_y < cells_y ? cj_begin + colour_tile_y : cells_y;
+  static constexpr bool staged = OnlyWritesNodes<Body>::value;
+  static constexpr index_t P = Shape::colour_period, r = Shape::colour_period / 2;
+  static constexpr index_t window_x = colour_tile_x + 2 * r - 1, window_y = colour_tile_y + 2 * r - 1;
+
+  Shape shape;
+  RealView x, y;
+  IndexView cell, offset, order;
+  Body body;
+  index_t cells_x, cells_y, nodes_x, nodes_y;
+  index_t a, b, columns;  // the colour (a, b) and its tiles per row
+  int components;         // of the node fields written (staged)
+
+  size_t scratch_bytes() const { return staged ? size_t(window_x * window_y) * components * sizeof(real_t) : 0; }
+
+  // f(c) for the cells c of the tile's sub-colour `sub`, a thread each.
+  template <class F>
+  KOKKOS_INLINE_FUNCTION void for_each_cell(const Team& team, index_t ci_begin, index_t ci_end, index_t cj_begin,
+                                            index_t cj_end, index_t sub, const F& f) const {
+    const index_t ci_first = ci_begin + sub % P, cj_first = cj_begin + sub / P;
+    const index_t nx = ci_first < ci_end ? (ci_end - ci_first + P - 1) / P : 0;
+    const index_t ny = cj_first < cj_end ? (cj_end - cj_first + P - 1) / P : 0;
+    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, nx * ny), [&](const index_t m) {
+      f(ci_first + P * (m % nx) + cells_x * (cj_first + P * (m / nx)));
+    });
+  }
+
+  KOKKOS_INLINE_FUNCTION void operator()(const Team& team) const {
+    const index_t k = team.league_rank();
+    const index_t tile_i = a + 2 * (k % columns), tile_j = b + 2 * (k / columns);
+    const index_t ci_begin = tile_i * colour_tile_x, cj_begin = tile_j * colour_tile_y;
+    const index_t ci_end = ci_begin + colour_tile_x < cells_x ? ci_begin + colour_tile_x : cells_x;
+    const index_t cj_end = cj_begin + colour_tile_y < cells_y ? cj_begin + colour_tile_y : cells_y;
+    if constexpr (staged) {
+      const index_t window_nodes = window_x * window_y, i0 = ci_begin - r + 1, j0 = cj_begin - r + 1;
+      real_t* window = static_cast<real_t*>(team.team_scratch(0).get_shmem(scratch_bytes()));
+      Kokkos::parallel_for(Kokkos::TeamThreadRange(team, window_nodes * components),
+                           [&](const index_t m) { window[m] = 0; });
+      team.team_barrier();
+      Body local = body;  // the same body, adding into the window
+      local.scatter.target = NodeFieldsView(window, window_nodes, components);
       for (index_t sub = 0; sub < P * P; ++sub) {
-        const index_t ci_first = ci_begin + sub % P, cj_first = cj_begin + sub / P;
-        const index_t nx = ci_first < ci_end ? (ci_end - ci_first + P - 1) / P : 0;
-        const index_t ny = cj_first < cj_end ? (cj_end - cj_first + P - 1) / P : 0;
-        Kokkos::parallel_for(Kokkos::TeamThreadRange(team, nx * ny), [&](const index_t m) {
-          const index_t c = ci_first + P * (m % nx) + cells_x * (cj_first + P * (m / nx));
+        for_each_cell(team, ci_begin, ci_end, cj_begin, cj_end, sub, [&](const index_t c) {
+          for (index_t s = offset(c); s < offset(c + 1); ++s) {
+            const index_t p = order(s);
+            auto stencil = shape(p, cell(p), x(p), y(p));
+            const index_t gj = stencil.first_node / nodes_x, gi = stencil.first_node - gj * nodes_x;
+            stencil.first_node = (gi - i0) + window_x * (gj - j0);
+            stencil.row_stride = window_x;
+            local(p, stencil);
+          }
+        });
+        team.team_barrier();
+      }
+      Kokkos::parallel_for(Kokkos::TeamThreadRange(team, window_nodes), [&](const index_t m) {
+        const index_t i = i0 + m % window_x, j = j0 + m / window_x;
+        if (i < 0 || j < 0 || i >= nodes_x || j >= nodes_y) return;  // beyond the grid: never reached
+        for (int c = 0; c < components; ++c) body.scatter.target(i + nodes_x * j, c) += window[m + window_nodes * c];
+      });
+    } else {
+      for (index_t sub = 0; sub < P * P; ++sub) {
+        for_each_cell(team, ci_begin, ci_end, cj_begin, cj_end, sub, [&](const index_t c) {
           for (index_t s = offset(c); s < offset(c + 1); ++s) {
             const index_t p = order(s);
             body(p, shape(p, cell(p), x(p), y(p)));
@@ -303,7 +349,30 @@ void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLo
         });
         team.team_barrier();
       }
-    });
+    }
+  }
+};
+
+// A team of threads per tile (the GPU path, cells.teams true): TeamTile.
+template <class Shape, class Body>
+void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLocations& particles,
+                         const ColouredCells& cells, const Body& body) {
+  const index_t cells_x = cells.cells_x, cells_y = cells.cells_y;
+  const index_t tiles_x = (cells_x + colour_tile_x - 1) / colour_tile_x;
+  const index_t tiles_y = (cells_y + colour_tile_y - 1) / colour_tile_y;
+  int components = 0;
+  if constexpr (TeamTile<Shape, Body>::staged) components = static_cast<int>(body.scatter.target.extent(1));
+  for (int colour = 0; colour < 4; ++colour) {
+    const index_t a = colour % 2, b = colour / 2;
+    const index_t columns = (tiles_x - a + 1) / 2, rows = (tiles_y - b + 1) / 2;
+    if (columns <= 0 || rows <= 0) continue;
+    const TeamTile<Shape, Body> tile{shape,   particles.x, particles.y, particles.cell, cells.cell_offset,
+                                     cells.particle, body, cells_x, cells_y, shape.grid.geometry.nodes_x,
+                                     shape.grid.geometry.nodes_y, a, b, columns, components};
+    auto policy = cells.team_size > 0 ? Kokkos::TeamPolicy<ExecutionSpace>(columns * rows, cells.team_size)
+                                      : Kokkos::TeamPolicy<ExecutionSpace>(columns * rows, Kokkos::AUTO);
+    if (tile.scratch_bytes() > 0) policy.set_scratch_size(0, Kokkos::PerTeam(tile.scratch_bytes()));
+    Kokkos::parallel_for(label, policy, tile);
   }
 }
 
@@ -405,6 +474,7 @@ KOKKOS_FORCEINLINE_FUNCTION void accumulate(const StencilType& s, const Access& 
 // P2G body: node(i, first + c) += F_c(p) phi_i(X_p).
 template <class Access, class ParticleFunctor>
 struct P2GBody {
+  using only_writes_nodes = std::true_type;  // (OnlyWritesNodes)
   static constexpr int N = ParticleFunctor::num_components;
   Access scatter;
   int first_component;
@@ -420,6 +490,7 @@ struct P2GBody {
 // P2GD body: node(i, first + c) += G_c(p) . grad phi_i(X_p).
 template <class Access, class ParticleFunctor>
 struct P2GDBody {
+  using only_writes_nodes = std::true_type;  // (OnlyWritesNodes)
   static constexpr int N = ParticleFunctor::num_components;
   Access scatter;
   int first_component;
@@ -446,6 +517,7 @@ struct P2GDBody {
 // P2G and P2GD body in one: F(p) phi_i into the value columns, G(p) . grad phi_i into the vector ones.
 template <class Access, class ValueFunctor, class VectorFunctor>
 struct P2GAndP2GDBody {
+  using only_writes_nodes = std::true_type;  // (OnlyWritesNodes)
   static constexpr int NV = ValueFunctor::num_components;
   static constexpr int ND = VectorFunctor::num_components;
   Access scatter;
