@@ -293,7 +293,9 @@ struct TeamTile {
   index_t a, b, columns;  // the colour (a, b) and its tiles per row
   int components;         // of the node fields written (staged)
 
-  size_t scratch_bytes() const { return staged ? size_t(window_x * window_y) * components * sizeof(real_t) : 0; }
+  KOKKOS_INLINE_FUNCTION size_t scratch_bytes() const {
+    return staged ? size_t(window_x * window_y) * components * sizeof(real_t) : 0;
+  }
 
   // f(c) for the cells c of the tile's sub-colour `sub`, a thread each.
   template <class F>
