@@ -213,6 +213,30 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 constexpr int colour_tile_x = 64;
 constexpr int colour_tile_y = 4;
 
+// The tiles of one of the four colours: colour (a, b) holds tiles (a + 2 i, b + 2 j), `columns`
+// of them per row, `rows` rows; its k-th tile and that tile's cells.
+struct TileColour {
+  index_t a = 0, b = 0, columns = 0, rows = 0;
+  index_t cells_x = 0, cells_y = 0;
+
+  TileColour(const ColouredCells& cells, int colour)
+      : a(colour % 2), b(colour / 2), cells_x(cells.cells_x), cells_y(cells.cells_y) {
+    const index_t tiles_x = (cells_x + colour_tile_x - 1) / colour_tile_x;
+    const index_t tiles_y = (cells_y + colour_tile_y - 1) / colour_tile_y;
+    columns = (tiles_x - a + 1) / 2 > 0 ? (tiles_x - a + 1) / 2 : 0;
+    rows = (tiles_y - b + 1) / 2 > 0 ? (tiles_y - b + 1) / 2 : 0;
+  }
+  index_t tiles() const { return columns * rows; }
+  // The cells [ci_begin, ci_end) x [cj_begin, cj_end) of tile k.
+  KOKKOS_INLINE_FUNCTION void cells_of_tile(index_t k, index_t& ci_begin, index_t& ci_end, index_t& cj_begin,
+                                            index_t& cj_end) const {
+    ci_begin = (a + 2 * (k % columns)) * colour_tile_x;
+    cj_begin = (b + 2 * (k / columns)) * colour_tile_y;
+    ci_end = ci_begin + colour_tile_x < cells_x ? ci_begin + colour_tile_x : cells_x;
+    cj_end = cj_begin + colour_tile_y < cells_y ? cj_begin + colour_tile_y : cells_y;
+  }
+};
+
 // One thread per tile (the CPU path, cells.teams false).
 template <class Shape, class Body>
 void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& particles,
@@ -221,25 +245,21 @@ void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& 
   const auto y = particles.y;
   const auto cell = particles.cell;
   const index_t row_stride = shape.grid.geometry.nodes_x;
-  const index_t cells_x = cells.cells_x, cells_y = cells.cells_y;
-  const index_t tiles_x = (cells_x + colour_tile_x - 1) / colour_tile_x;
-  const index_t tiles_y = (cells_y + colour_tile_y - 1) / colour_tile_y;
+  const index_t cells_x = cells.cells_x;
   const IndexView offset = cells.cell_offset, order = cells.particle;
   // (A plain `if` on it below: nvcc allows no `if constexpr` around what a device lambda captures.)
   constexpr bool batched = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
   for (int colour = 0; colour < 4; ++colour) {
-    const index_t a = colour % 2, b = colour / 2;
-    const index_t columns = (tiles_x - a + 1) / 2, rows = (tiles_y - b + 1) / 2;
-    if (columns <= 0 || rows <= 0) continue;
+    const TileColour tiles(cells, colour);
+    if (tiles.tiles() == 0) continue;
     Kokkos::parallel_for(
-        label, Kokkos::RangePolicy<ExecutionSpace>(0, columns * rows), KOKKOS_LAMBDA(const index_t k) {
-          const index_t tile_i = a + 2 * (k % columns), tile_j = b + 2 * (k / columns);
-          const index_t ci_end = (tile_i + 1) * colour_tile_x < cells_x ? (tile_i + 1) * colour_tile_x : cells_x;
-          const index_t cj_end = (tile_j + 1) * colour_tile_y < cells_y ? (tile_j + 1) * colour_tile_y : cells_y;
+        label, Kokkos::RangePolicy<ExecutionSpace>(0, tiles.tiles()), KOKKOS_LAMBDA(const index_t k) {
+          index_t ci_begin, ci_end, cj_begin, cj_end;
+          tiles.cells_of_tile(k, ci_begin, ci_end, cj_begin, cj_end);
           // The tile's cells row by row: the particles of one row of the tile are consecutive in
           // the cell order.
-          for (index_t cj = tile_j * colour_tile_y; cj < cj_end; ++cj) {
-            const index_t row_begin = offset(tile_i * colour_tile_x + cells_x * cj);
+          for (index_t cj = cj_begin; cj < cj_end; ++cj) {
+            const index_t row_begin = offset(ci_begin + cells_x * cj);
             const index_t row_end = offset(ci_end + cells_x * cj);
             if (batched) {
               constexpr int L = stencil_batch_size;
@@ -289,68 +309,53 @@ struct TeamTile {
   RealView x, y;
   IndexView cell, offset, order;
   Body body;
-  index_t cells_x, cells_y, nodes_x, nodes_y;
-  index_t a, b, columns;  // the colour (a, b) and its tiles per row
-  int components;         // of the node fields written (staged)
+  TileColour tiles;
+  index_t nodes_x, nodes_y;
+  int components;  // of the node fields written (staged)
 
   KOKKOS_INLINE_FUNCTION size_t scratch_bytes() const {
     return staged ? size_t(window_x * window_y) * components * sizeof(real_t) : 0;
   }
 
-  // f(c) for the cells c of the tile's sub-colour `sub`, a thread each.
-  template <class F>
-  KOKKOS_INLINE_FUNCTION void for_each_cell(const Team& team, index_t ci_begin, index_t ci_end, index_t cj_begin,
-                                            index_t cj_end, index_t sub, const F& f) const {
-    const index_t ci_first = ci_begin + sub % P, cj_first = cj_begin + sub / P;
-    const index_t nx = ci_first < ci_end ? (ci_end - ci_first + P - 1) / P : 0;
-    const index_t ny = cj_first < cj_end ? (cj_end - cj_first + P - 1) / P : 0;
-    Kokkos::parallel_for(Kokkos::TeamThreadRange(team, nx * ny), [&](const index_t m) {
-      f(ci_first + P * (m % nx) + cells_x * (cj_first + P * (m / nx)));
-    });
-  }
-
   KOKKOS_INLINE_FUNCTION void operator()(const Team& team) const {
-    const index_t k = team.league_rank();
-    const index_t tile_i = a + 2 * (k % columns), tile_j = b + 2 * (k / columns);
-    const index_t ci_begin = tile_i * colour_tile_x, cj_begin = tile_j * colour_tile_y;
-    const index_t ci_end = ci_begin + colour_tile_x < cells_x ? ci_begin + colour_tile_x : cells_x;
-    const index_t cj_end = cj_begin + colour_tile_y < cells_y ? cj_begin + colour_tile_y : cells_y;
+    index_t ci_begin, ci_end, cj_begin, cj_end;
+    tiles.cells_of_tile(team.league_rank(), ci_begin, ci_end, cj_begin, cj_end);
+    const index_t window_nodes = window_x * window_y, i0 = ci_begin - r + 1, j0 = cj_begin - r + 1;
+    Body local = body;  // staged: the same body, adding into the window
+    real_t* window = nullptr;
     if constexpr (staged) {
-      const index_t window_nodes = window_x * window_y, i0 = ci_begin - r + 1, j0 = cj_begin - r + 1;
-      real_t* window = static_cast<real_t*>(team.team_scratch(0).get_shmem(scratch_bytes()));
+      window = static_cast<real_t*>(team.team_scratch(0).get_shmem(scratch_bytes()));
       Kokkos::parallel_for(Kokkos::TeamThreadRange(team, window_nodes * components),
                            [&](const index_t m) { window[m] = 0; });
       team.team_barrier();
-      Body local = body;  // the same body, adding into the window
       local.scatter.target = NodeFieldsView(window, window_nodes, components);
-      for (index_t sub = 0; sub < P * P; ++sub) {
-        for_each_cell(team, ci_begin, ci_end, cj_begin, cj_end, sub, [&](const index_t c) {
-          for (index_t s = offset(c); s < offset(c + 1); ++s) {
-            const index_t p = order(s);
-            auto stencil = shape(p, cell(p), x(p), y(p));
+    }
+    for (index_t sub = 0; sub < P * P; ++sub) {
+      // The cells of sub-colour `sub`, a thread each.
+      const index_t ci_first = ci_begin + sub % P, cj_first = cj_begin + sub / P;
+      const index_t nx = ci_first < ci_end ? (ci_end - ci_first + P - 1) / P : 0;
+      const index_t ny = cj_first < cj_end ? (cj_end - cj_first + P - 1) / P : 0;
+      Kokkos::parallel_for(Kokkos::TeamThreadRange(team, nx * ny), [&](const index_t m) {
+        const index_t c = ci_first + P * (m % nx) + tiles.cells_x * (cj_first + P * (m / nx));
+        for (index_t s = offset(c); s < offset(c + 1); ++s) {
+          const index_t p = order(s);
+          auto stencil = shape(p, cell(p), x(p), y(p));
+          if constexpr (staged) {  // its nodes in the window
             const index_t gj = stencil.first_node / nodes_x, gi = stencil.first_node - gj * nodes_x;
             stencil.first_node = (gi - i0) + window_x * (gj - j0);
             stencil.row_stride = window_x;
-            local(p, stencil);
           }
-        });
-        team.team_barrier();
-      }
+          local(p, stencil);
+        }
+      });
+      team.team_barrier();
+    }
+    if constexpr (staged) {
       Kokkos::parallel_for(Kokkos::TeamThreadRange(team, window_nodes), [&](const index_t m) {
         const index_t i = i0 + m % window_x, j = j0 + m / window_x;
         if (i < 0 || j < 0 || i >= nodes_x || j >= nodes_y) return;  // beyond the grid: never reached
         for (int c = 0; c < components; ++c) body.scatter.target(i + nodes_x * j, c) += window[m + window_nodes * c];
       });
-    } else {
-      for (index_t sub = 0; sub < P * P; ++sub) {
-        for_each_cell(team, ci_begin, ci_end, cj_begin, cj_end, sub, [&](const index_t c) {
-          for (index_t s = offset(c); s < offset(c + 1); ++s) {
-            const index_t p = order(s);
-            body(p, shape(p, cell(p), x(p), y(p)));
-          }
-        });
-        team.team_barrier();
-      }
     }
   }
 };
@@ -359,20 +364,24 @@ struct TeamTile {
 template <class Shape, class Body>
 void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLocations& particles,
                          const ColouredCells& cells, const Body& body) {
-  const index_t cells_x = cells.cells_x, cells_y = cells.cells_y;
-  const index_t tiles_x = (cells_x + colour_tile_x - 1) / colour_tile_x;
-  const index_t tiles_y = (cells_y + colour_tile_y - 1) / colour_tile_y;
   int components = 0;
   if constexpr (TeamTile<Shape, Body>::staged) components = static_cast<int>(body.scatter.target.extent(1));
   for (int colour = 0; colour < 4; ++colour) {
-    const index_t a = colour % 2, b = colour / 2;
-    const index_t columns = (tiles_x - a + 1) / 2, rows = (tiles_y - b + 1) / 2;
-    if (columns <= 0 || rows <= 0) continue;
-    const TeamTile<Shape, Body> tile{shape,   particles.x, particles.y, particles.cell, cells.cell_offset,
-                                     cells.particle, body, cells_x, cells_y, shape.grid.geometry.nodes_x,
-                                     shape.grid.geometry.nodes_y, a, b, columns, components};
-    auto policy = cells.team_size > 0 ? Kokkos::TeamPolicy<ExecutionSpace>(columns * rows, cells.team_size)
-                                      : Kokkos::TeamPolicy<ExecutionSpace>(columns * rows, Kokkos::AUTO);
+    const TileColour tiles(cells, colour);
+    if (tiles.tiles() == 0) continue;
+    const TeamTile<Shape, Body> tile{shape,
+                                     particles.x,
+                                     particles.y,
+                                     particles.cell,
+                                     cells.cell_offset,
+                                     cells.particle,
+                                     body,
+                                     tiles,
+                                     shape.grid.geometry.nodes_x,
+                                     shape.grid.geometry.nodes_y,
+                                     components};
+    auto policy = cells.team_size > 0 ? Kokkos::TeamPolicy<ExecutionSpace>(tiles.tiles(), cells.team_size)
+                                      : Kokkos::TeamPolicy<ExecutionSpace>(tiles.tiles(), Kokkos::AUTO);
     if (tile.scratch_bytes() > 0) policy.set_scratch_size(0, Kokkos::PerTeam(tile.scratch_bytes()));
     Kokkos::parallel_for(label, policy, tile);
   }
