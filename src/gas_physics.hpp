@@ -22,10 +22,23 @@ KOKKOS_INLINE_FUNCTION real_t sound_speed(real_t gamma, real_t pressure, real_t 
 }
 
 // The same for a perfect gas from its specific internal energy: c^2 = gamma p / rho =
-// gamma (gamma - 1) e, without the division.
-KOKKOS_INLINE_FUNCTION real_t perfect_gas_sound_speed(real_t gamma, real_t specific_energy) {
+// gamma (gamma - 1) e, without the division; 0 for a non-positive energy, as above.
+KOKKOS_INLINE_FUNCTION real_t perfect_gas_sound_speed_squared(real_t gamma, real_t specific_energy) {
   const real_t c2 = gamma * (gamma - 1) * specific_energy;
-  return c2 > 0 ? square_root(c2) : real_t(0);
+  return c2 > 0 ? c2 : real_t(0);
+}
+KOKKOS_INLINE_FUNCTION real_t perfect_gas_sound_speed(real_t gamma, real_t specific_energy) {
+  return square_root(perfect_gas_sound_speed_squared(gamma, specific_energy));
+}
+
+// P V of a perfect gas of mass M and volume V = M / rho: (gamma - 1) M e, without the division.
+KOKKOS_INLINE_FUNCTION real_t perfect_gas_pressure_volume(real_t gamma, real_t mass, real_t specific_energy) {
+  return (gamma - 1) * mass * specific_energy;
+}
+// (P + Q) V, with the artificial viscosity Q: what the particle's stress gives the nodes (eq. 13).
+KOKKOS_INLINE_FUNCTION real_t perfect_gas_stress_volume(real_t gamma, real_t mass, real_t density,
+                                                        real_t specific_energy, real_t viscosity) {
+  return perfect_gas_pressure_volume(gamma, mass, specific_energy) + viscosity * (mass / density);
 }
 
 // von Neumann-Richtmyer (c0, quadratic) + Landshoff (c1, linear) artificial viscosity in its
@@ -70,8 +83,8 @@ KOKKOS_INLINE_FUNCTION bool is_valid_gas_state(real_t density, real_t pressure, 
 KOKKOS_INLINE_FUNCTION bool surely_valid_gas_state(real_t gamma, real_t density, real_t specific_energy, real_t vx,
                                                    real_t vy) {
   const real_t pressure = perfect_gas_pressure(gamma, density, specific_energy);
-  const real_t c2 = gamma * (gamma - 1) * specific_energy;
-  return density > 0 && pressure == pressure && vx * vx + vy * vy + (c2 > 0 ? c2 : real_t(0)) < largest_real;
+  return density > 0 && pressure == pressure &&
+         vx * vx + vy * vy + perfect_gas_sound_speed_squared(gamma, specific_energy) < largest_real;
 }
 
 }  // namespace mpmflow

@@ -29,7 +29,7 @@ struct MassMomentumAndPressureVolume {
     value[0] = mass(p);
     value[1] = mass(p) * vx;
     value[2] = mass(p) * vy;
-    value[3] = (gamma - 1) * mass(p) * e;
+    value[3] = perfect_gas_pressure_volume(gamma, mass(p), e);
     if (!surely_valid_gas_state(gamma, density(p), e, vx, vy)) {
       auto count = in_doubt.access();
       count(0) += 1;
@@ -64,15 +64,14 @@ struct Momentum {
   }
 };
 
-// P2GD(zeta / eta, P, Q, M, rho): the internal force f_i = sum_p (P+Q) (M/rho) grad phi_i (eq. 13),
-// with P M / rho = (gamma - 1) M e.
+// P2GD(zeta / eta, P, Q, M, rho): the internal force f_i = sum_p (P+Q) (M/rho) grad phi_i (eq. 13).
 struct InternalForce {
   static constexpr int num_components = 2;
   RealView specific_energy, viscosity, mass, density;
   real_t gamma;
   KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, real_t (&vector)[2][2]) const {
     const real_t stress_times_volume =
-        (gamma - 1) * mass(p) * specific_energy(p) + viscosity(p) * (mass(p) / density(p));
+        perfect_gas_stress_volume(gamma, mass(p), density(p), specific_energy(p), viscosity(p));
     vector[0][0] = stress_times_volume;  // zeta: x force component pairs with d/dx
     vector[0][1] = 0;
     vector[1][0] = 0;                    // eta: y force component pairs with d/dy
@@ -167,9 +166,8 @@ struct VolumeAndStress {
   RealView mass, density, specific_energy, viscosity;
   real_t gamma;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[2]) const {
-    const real_t volume = mass(p) / density(p);
-    value[0] = volume;
-    value[1] = (perfect_gas_pressure(gamma, density(p), specific_energy(p)) + viscosity(p)) * volume;
+    value[0] = mass(p) / density(p);
+    value[1] = perfect_gas_stress_volume(gamma, mass(p), density(p), specific_energy(p), viscosity(p));
   }
 };
 
