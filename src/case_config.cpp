@@ -524,6 +524,8 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     r.optional_boolean("fused_kernels", cfg.numerics.fused_kernels);
     r.optional_boolean("energy_consistent", cfg.numerics.energy_consistent);
     r.optional_boolean("cell_averaged_strain", cfg.numerics.cell_averaged_strain);
+    r.optional_boolean("pressure_relaxation", cfg.numerics.pressure_relaxation);
+    r.optional_boolean("volume_correction", cfg.numerics.volume_correction);
     r.optional_boolean("split_particles", cfg.numerics.split_particles);
     r.optional_boolean("merge_particles", cfg.numerics.merge_particles);
     r.finish();
@@ -634,7 +636,8 @@ std::set<std::string> case_file_keys() {
     "output": {"directory": "out", "snapshots": 1, "checkpoint_interval": 0, "checkpoints_kept": 2},
     "decomposition": {"axis": "x", "balance_interval": 0},
     "numerics": {"reorder_interval": 0, "p2g": "automatic", "shape_function": "gimp", "fused_kernels": true,
-                 "energy_consistent": true, "cell_averaged_strain": false, "split_particles": true,
+                 "energy_consistent": true, "cell_averaged_strain": false, "pressure_relaxation": true,
+                 "volume_correction": true, "split_particles": true,
                  "merge_particles": true}
   })";
   PointsFiles outline;
@@ -721,6 +724,8 @@ std::string effective_case_json(const CaseConfig& c) {
                    {"fused_kernels", c.numerics.fused_kernels},
                    {"energy_consistent", c.numerics.energy_consistent},
                    {"cell_averaged_strain", c.numerics.cell_averaged_strain},
+                   {"pressure_relaxation", c.numerics.pressure_relaxation},
+                   {"volume_correction", c.numerics.volume_correction},
                    {"split_particles", c.numerics.split_particles},
                    {"merge_particles", c.numerics.merge_particles}};
   return e.dump(2);

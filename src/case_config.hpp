@@ -154,18 +154,26 @@ struct NumericsConfig {
   // the forces were made of, so that kinetic + internal energy is conserved to round-off in a
   // closed box. false: the paper's update, p dV with the remapped end-of-step velocity and the new Q.
   bool energy_consistent = true;
-  // The particles of a cell share one pressure and one volume change: at the start of each step
-  // the particles of a cell whose pressures and densities differ by noise (relative spread below
-  // 1/4) are brought towards one pressure, keeping the cell's volume and internal energy; the
-  // force takes the cell's volume-weighted mean P + Q, and the update the cell's mean velocity
-  // divergence (cell-averaged volumetric strain, as "F-bar" methods use against volumetric
-  // locking). Measured (README): it removes most of the noise of irregularly placed particles (a
-  // free Mach 3 stream, 100 x 50 cells: density scatter 12 % -> 1.6 %, pressure 17 % -> 2.3 %) and
-  // sharpens Sod, but smears smooth rarefactions (Toro's test 2: density L1 0.020 -> 0.030 at 100
-  // cells), lets the particles' density drift low downstream (-1.5 % after 4 lengths; mean
-  // pressure at a subsonic far field 0.86 instead of 0.91). Off by default until those are
-  // understood.
+  // The particles of a cell share one volume change (the volume-weighted mean velocity divergence
+  // of the cell) and the force one stress (the cell's mean P + Q): cell-averaged volumetric strain,
+  // as "F-bar" methods use against volumetric locking. Measured (README, Numerics): with the
+  // default pressure relaxation and volume correction it adds nothing to a free stream's quiet and
+  // smears Toro's near-vacuum; the volume correction does not act with it.
   bool cell_averaged_strain = false;
+  // The particles of each cell go towards one pressure at the acoustic rate dt c / h per step,
+  // keeping the cell's volume and internal energy (pressure_relaxation_fraction, gas_physics.hpp):
+  // pressure differences within a cell are below what the grid resolves, the gas would even them
+  // out, MPM's forces cannot. Cells holding a shock, a contact or a near-vacuum are left alone.
+  // Measured (README, Numerics): a free Mach 3 stream of random particles scatters 3-4 % instead
+  // of 12-17 %; Sod and Toro's test 2 come closer to the exact solutions.
+  bool pressure_relaxation = true;
+  // Each particle's density is corrected towards the volume fraction of its nodes (the particles'
+  // volumes over the space they share, volume_corrected_density, gas_physics.hpp) at the acoustic
+  // rate: scattered particles' volumes do not tile the space, their pressure forces do work that
+  // makes the volumes grow (a free stream's particles held 1.5 % more volume than their space
+  // after 3 tunnel lengths, a subsonic far-field tunnel 13 % with its pressure 15 % low). Not near
+  // obstacles nor far-field sides (ObstacleGrid::node_gas_volume).
+  bool volume_correction = true;
   // A particle whose volume has doubled splits in two (particle_splitting.hpp), so that no gap
   // opens in the gas where it expands strongly (Toro's test 2). Off by default: with it more
   // particles pile up squeezed against the front of the coarse Mach 3 cylinder (100 x 50 cells,

@@ -87,4 +87,56 @@ KOKKOS_INLINE_FUNCTION bool surely_valid_gas_state(real_t gamma, real_t density,
          vx * vx + vy * vy + perfect_gas_sound_speed_squared(gamma, specific_energy) < largest_real;
 }
 
+// ---- Sub-cell consistency (numerics/pressure_relaxation and numerics/volume_correction) ---------
+
+// The fraction of a volume or pressure mismatch below the grid's resolution that the gas evens
+// out in a step of dt: dt c / h, the share of a cell that sound crosses (at most all of it).
+KOKKOS_INLINE_FUNCTION real_t acoustic_fraction(real_t dt, real_t sound_speed, real_t cell_size) {
+  const real_t fraction = dt * sound_speed / cell_size;
+  return fraction < 1 ? fraction : real_t(1);
+}
+
+// The relative spread (volume-weighted standard deviation over mean) of a quantity of a cell from
+// its sums of V q and V q^2.
+KOKKOS_INLINE_FUNCTION real_t relative_spread(real_t volume, real_t sum, real_t sum_of_squares) {
+  const real_t mean = sum / volume, variance = sum_of_squares / volume - mean * mean;
+  return variance > 0 && mean > 0 ? square_root(variance) / mean : real_t(0);
+}
+
+// The fraction of the way to one pressure that the particles of a cell go in a step of dt: the
+// acoustic rate dt c / h (c the cell's sound speed, c^2 = gamma (gamma - 1) sum(M e) / sum(M): a
+// pressure difference across a cell evens out in about the time sound takes to cross it), times
+// 1 - s / 0.25, s the larger relative spread of the cell's pressures and densities (noise is a few
+// per cent; a shock or a contact within the cell, or a particle unlike its neighbours near a
+// vacuum, is left alone). 0 where the cell holds no gas.
+KOKKOS_INLINE_FUNCTION real_t pressure_relaxation_fraction(real_t gamma, real_t dt, real_t cell_size, real_t volume,
+                                                           real_t mass, real_t internal_energy, real_t pressure_spread,
+                                                           real_t density_spread) {
+  if (!(volume > 0 && mass > 0 && internal_energy > 0)) return 0;
+  const real_t spread = pressure_spread > density_spread ? pressure_spread : density_spread;
+  const real_t fraction =
+      acoustic_fraction(dt, perfect_gas_sound_speed(gamma, internal_energy / mass), cell_size) * (1 - spread / real_t(0.25));
+  return fraction > 0 ? fraction : real_t(0);
+}
+
+// A particle's volume at its cell's mean pressure P (= sum V p / sum V) in the pressure relaxation:
+// compressed or expanded isentropically, V (p / P)^(1 / gamma), to first order in the pressure
+// difference, V (1 + (p - P) / (gamma P)), which the relaxation acts on (differences of a few per
+// cent). To that order the shares sum to the cell's volume exactly: sum V (p - P) = 0.
+KOKKOS_INLINE_FUNCTION real_t relaxed_volume_share(real_t gamma, real_t volume, real_t pressure, real_t mean_pressure) {
+  return volume * (1 + (pressure - mean_pressure) / (gamma * mean_pressure));
+}
+
+// A particle's density corrected towards the space its volume shares: with phi the volume
+// fraction at the particle (the nodes' sum of the particles' volumes over the gas space they
+// cover, interpolated), the density times 1 + rate (phi - 1), rate = acoustic_fraction. Where the
+// particles' volumes over-fill their space (phi > 1) they are compressed, where they leave part of
+// it empty expanded. The specific energy is kept, so the energy is conserved exactly (the pressure
+// follows the density). Left alone where phi is far from 1 (below 1/2: the gas does not fill the
+// stencil, at a free surface or near a vacuum; above 2).
+KOKKOS_INLINE_FUNCTION real_t volume_corrected_density(real_t density, real_t volume_fraction, real_t rate) {
+  if (!(volume_fraction > real_t(0.5) && volume_fraction < 2)) return density;
+  return density * (1 + rate * (volume_fraction - 1));
+}
+
 }  // namespace mpmflow

@@ -182,13 +182,69 @@ DeviceObstacleSet copy_to_device(const HostObstacleSet& host) {
   return device;
 }
 
-ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, const GridSlab& slab) {
+namespace {
+
+// The share of a node's hat function along one axis that lies within [lo, hi] (the node on the
+// grid's lines, so: all of it inside, half on the edge, none beyond).
+double hat_share_within(double node, double lo, double hi, double spacing) {
+  const double tolerance = 0.25 * spacing;
+  if (node < lo - tolerance || node > hi + tolerance) return 0;
+  if (node < lo + tolerance || node > hi - tolerance) return 0.5;
+  return 1;
+}
+
+// ObstacleGrid::node_gas_volume. Within `margin` of an obstacle the hat's part outside it is
+// integrated by the midpoint rule on 16 x 16 points per cell, and the volume stored negative.
+RealView node_gas_volumes(const HostObstacleSet& obstacles, const GridSlab& slab, const BoundaryConfig& sides,
+                          double margin) {
+  const GridGeometry& geo = slab.geometry;
+  const double hx = geo.spacing_x, hy = geo.spacing_y, reach_x = 1.25 * hx, reach_y = 1.25 * hy;
+  auto near_far_field = [&](double x, double y) {
+    return (sides.left == BoundaryType::far_field && x < slab.domain_x_min + reach_x) ||
+           (sides.right == BoundaryType::far_field && x > slab.domain_x_max - reach_x) ||
+           (sides.bottom == BoundaryType::far_field && y < slab.domain_y_min + reach_y) ||
+           (sides.top == BoundaryType::far_field && y > slab.domain_y_max - reach_y);
+  };
+  auto inside_domain = [&](double x, double y) {
+    return x >= slab.domain_x_min && x <= slab.domain_x_max && y >= slab.domain_y_min && y <= slab.domain_y_max;
+  };
+  constexpr int samples = 32;  // per axis over the hat's two cells
+  RealView volume("node_gas_volume", geo.num_nodes());
+  auto host = Kokkos::create_mirror_view(volume);
+  for (index_t j = 0; j < geo.nodes_y; ++j)
+    for (index_t i = 0; i < geo.nodes_x; ++i) {
+      const double x = geo.node_x(i), y = geo.node_y(j);
+      double v = hx * hy * hat_share_within(x, slab.domain_x_min, slab.domain_x_max, hx) *
+                 hat_share_within(y, slab.domain_y_min, slab.domain_y_max, hy);
+      if (v > 0 && near_far_field(x, y)) v = 0;
+      if (v > 0 && !obstacles.empty() && obstacles(x, y).distance < margin) {
+        double sum = 0;
+        for (int b = 0; b < samples; ++b)
+          for (int a = 0; a < samples; ++a) {
+            const double u = -1 + (a + 0.5) * 2 / samples, w = -1 + (b + 0.5) * 2 / samples;
+            const double px = x + u * hx, py = y + w * hy;
+            if (inside_domain(px, py) && obstacles(px, py).distance > 0) sum += (1 - std::fabs(u)) * (1 - std::fabs(w));
+          }
+        v = -sum * (2.0 / samples) * (2.0 / samples) * hx * hy;
+      }
+      host(geo.node_index(i, j)) = v;
+    }
+  Kokkos::deep_copy(volume, host);
+  return volume;
+}
+
+}  // namespace
+
+ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, const GridSlab& slab,
+                                const BoundaryConfig& sides) {
   ObstacleGrid grid;
   const HostObstacleSet host = make_host_obstacle_set(obstacles);
   grid.obstacles = copy_to_device(host);
   const GridGeometry& geo = slab.geometry;
   grid.cell_near_obstacle = IndexView("cell_near_obstacle", geo.num_cells());
   grid.num_obstacles = static_cast<int>(obstacles.size());
+  grid.node_gas_volume =
+      node_gas_volumes(host, slab, sides, std::hypot(slab.geometry.spacing_x, slab.geometry.spacing_y));
   if (host.empty()) {
     grid.obstacle_nodes = IndexView("obstacle_nodes", 0);
     grid.obstacle_normals = NodeFieldsView("obstacle_normals", 0, 2);

@@ -123,6 +123,15 @@ struct ObstacleGrid {
   IndexView obstacle_nodes;
   NodeFieldsView obstacle_normals;  // (k, {n_x, n_y}) of obstacle_nodes(k)
   IndexView cell_near_obstacle;     // 1 where a corner of the cell lies within a cell diagonal of an obstacle
+  // Of every local node: the volume its hat function N_i covers within the domain and outside the
+  // obstacles, \int N_i over the gas's space (a cell's area inside, half of it on a side, a quarter
+  // in a corner, none beyond the domain): what the particles' volumes on the node sum to where
+  // they fill the space (the volume correction, node_volume_fraction). Negative within a cell
+  // diagonal of an obstacle, where only a shortfall counts: particles pressed against a body
+  // overlap it with their domains, so their volumes seem to over-fill a space they do fill. 0,
+  // unknown, within a cell of a far-field side, where the gas outside moves in and out as the
+  // particles' volumes leave it room (far_field in boundary_conditions.hpp).
+  RealView node_gas_volume;
   // Of obstacle_nodes(k): the obstacle (case order) whose surface is nearest, or -1 where this
   // slab does not own the node (each node's reaction is counted by one rank).
   IndexView obstacle_of_node;
@@ -131,6 +140,8 @@ struct ObstacleGrid {
   index_t num_obstacle_nodes() const { return static_cast<index_t>(obstacle_nodes.extent(0)); }
 };
 
-ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, const GridSlab& slab);
+// `sides`: the boundaries of the domain's sides (node_gas_volume leaves far-field sides out).
+ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, const GridSlab& slab,
+                                const BoundaryConfig& sides);
 
 }  // namespace mpmflow

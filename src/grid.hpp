@@ -112,9 +112,19 @@ inline GridSlab make_grid_slab(const DomainConfig& domain, index_t cell_begin_x,
 // the G2P kernels (the paper's theta functor): ppc^2 fewer divisions.
 struct GridFields {
   // pressure_volume: sum_p phi_i P M / rho, with the mass the nodes' sound speed for the time step.
-  enum StateColumn : int { mass = 0, momentum_x, momentum_y, pressure_volume, force_x, force_y, num_state_columns };
-  // (In the order the kernels read them: the acceleration alone by G2P, V-bar and the remapped
-  // velocity together by the G2P-and-G2PD of steps 10-11.)
+  // volume: sum_p phi_i M / rho, the particles' volume on the node (numerics/volume_correction).
+  enum StateColumn : int {
+    mass = 0,
+    momentum_x,
+    momentum_y,
+    pressure_volume,
+    volume,
+    force_x,
+    force_y,
+    num_state_columns
+  };
+  // (In the order the kernels read them: the acceleration alone by G2P, V-bar, the remapped
+  // velocity and the volume fraction together by the G2P-and-G2PD of steps 10-11.)
   enum PerUnitMassColumn : int {
     acceleration_x = 0,  // force / mass (step 7)
     acceleration_y,
@@ -122,6 +132,7 @@ struct GridFields {
     velocity_y,
     remap_velocity_x,    // remapped momentum / mass (step 10)
     remap_velocity_y,
+    volume_fraction,     // volume over the gas volume the node's hat covers (numerics/volume_correction)
     num_per_unit_mass_columns
   };
   // The columns of the projection of the particles' state for grid output: mass and momentum

@@ -71,6 +71,18 @@ void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, rea
       });
 }
 
+void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area) {
+  const NodeFieldsView state = fields.state, per_unit_mass = fields.per_unit_mass;
+  const RealView gas_volume = node_gas_volume;
+  const real_t smallest = real_t(0.25) * cell_area;
+  Kokkos::parallel_for(
+      "grid_volume_fraction", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))),
+      KOKKOS_LAMBDA(const index_t i) {
+        per_unit_mass(i, GridFields::volume_fraction) =
+            node_volume_fraction(state(i, GridFields::volume), gas_volume(i), smallest);
+      });
+}
+
 namespace {
 
 // to(i, to_first + c) = from(i, from_first + c) for c < count, on every node.

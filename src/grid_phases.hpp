@@ -31,6 +31,22 @@ void update_grid_momentum(const GridFields& fields, real_t dt, real_t mass_thres
 // remapped mean of the particles' old and new velocities).
 void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, real_t dt, bool midpoint);
 
+// The volume fraction phi_i of a node (node_volume_fraction) from its particles' volume
+// sum_p N_i(X_p) M / rho and the gas volume its hat covers, ObstacleGrid::node_gas_volume: 1 where
+// the particles' volumes fill the space they are in, as they must. 1 (neutral) where the hat holds
+// less gas space than `smallest` (beyond the domain, a corner cut by a body, unknown at a far-field
+// side), which says little about the particles around it; at most 1 where the gas volume is
+// negative (next to a body: only a shortfall counts).
+KOKKOS_INLINE_FUNCTION real_t node_volume_fraction(real_t particle_volume, real_t gas_volume, real_t smallest) {
+  const real_t space = gas_volume < 0 ? -gas_volume : gas_volume;
+  if (!(space > smallest)) return 1;
+  const real_t fraction = particle_volume / space;
+  return gas_volume < 0 && fraction > 1 ? real_t(1) : fraction;
+}
+
+// The volume fraction of every node into GridFields::volume_fraction (the volume correction).
+void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area);
+
 // Copies the momentum and force columns of `state` (before step 4) or the remapped momentum
 // (before step 9) into `before_conditions`.
 void keep_momentum_and_force_before_conditions(const GridFields& fields);

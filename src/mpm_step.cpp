@@ -72,6 +72,10 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     auto t = timers.scope(Phase::grid_remap_velocity);
     compute_remap_velocity(grid, mass_threshold, dt, settings.thermodynamics.energy_consistent);
   }
+  if (settings.thermodynamics.volume_correction) {  // ... and the volume fraction phi = sum V / gas volume
+    auto t = timers.scope(Phase::grid_remap_velocity);
+    compute_volume_fraction(grid, slab.obstacles().node_gas_volume, slab.slab().cell_area());
+  }
   double work_of_conditions = 0;
   if (energy_budget) {
     auto t = timers.scope(Phase::boundary_conditions);

@@ -15,21 +15,22 @@ namespace {
 // any order.
 using DoubtCounter = Kokkos::Experimental::ScatterView<index_t*, Kokkos::LayoutLeft, DeviceType>;
 
-// P2G(I, M), P2G(I, M Vx), P2G(I, M Vy), and P2G(I, P M / rho) for the nodes' sound speed (the
-// time step, node_signal_speed): GridFields::mass .. pressure_volume. For a perfect gas
-// P M / rho = (gamma - 1) M e: no division. The time step's check of the particle states comes
+// P2G(I, M), P2G(I, M Vx), P2G(I, M Vy), P2G(I, P M / rho) for the nodes' sound speed (the
+// time step, node_signal_speed), and P2G(I, M / rho) for the volume correction's volume fraction:
+// GridFields::mass .. volume. For a perfect gas P M / rho = (gamma - 1) M e: no division. The time step's check of the particle states comes
 // with it, since it reads them anyway: a particle not surely valid adds to `in_doubt`.
 struct MassMomentumAndPressureVolume {
-  static constexpr int num_components = 4;
+  static constexpr int num_components = 5;
   RealView mass, velocity_x, velocity_y, specific_energy, density;
   real_t gamma;
   DoubtCounter in_doubt;
-  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, real_t (&value)[4]) const {
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, real_t (&value)[5]) const {
     const real_t vx = velocity_x(p), vy = velocity_y(p), e = specific_energy(p);
     value[0] = mass(p);
     value[1] = mass(p) * vx;
     value[2] = mass(p) * vy;
     value[3] = perfect_gas_pressure_volume(gamma, mass(p), e);
+    value[4] = mass(p) / density(p);
     if (!surely_valid_gas_state(gamma, density(p), e, vx, vy)) {
       auto count = in_doubt.access();
       count(0) += 1;
@@ -79,86 +80,89 @@ struct InternalForce {
   }
 };
 
-// ---- Cell averages (numerics/cell_averaged_strain) ----------------------------------------------
+// ---- The pressure relaxation (numerics/pressure_relaxation) --------------------------------------
 
-// The columns of the per-cell sums: particle volume, (P + Q) x volume, velocity divergence x volume.
-enum CellSumColumn : int {
-  cell_volume = 0,
-  cell_stress_volume,
-  cell_divergence_volume,
-  // For the pressure equilibrium at the start of a step: the cell's internal energy sum M e, and
-  // the sums of V p^(1/gamma), V p, V p^2, M (= V rho) and V rho^2.
-  cell_internal_energy,
-  cell_entropy_weight,
-  cell_pressure_volume,
-  cell_pressure_squared_volume,
-  cell_mass,
-  cell_density_squared_volume,
-  num_cell_sum_columns
+// The columns of its per-cell sums. They are held in the rows of the grid's state View (row c for
+// cell c: a slab has more nodes than cells), whose step-3 sums are spent by the end of step 10, so
+// that the relaxation allocates nothing; P2C'd through the state's accumulator.
+enum RelaxationSumColumn : int {
+  relaxation_volume = 0,                    // sum V
+  relaxation_internal_energy,               // sum M e (so sum V p = (gamma - 1) sum M e)
+  relaxation_mass,                          // sum M (= sum V rho)
+  relaxation_pressure_squared_volume,       // sum V p^2
+  relaxation_density_squared_volume,        // sum V rho^2
+  num_relaxation_sum_columns
 };
+static_assert(num_relaxation_sum_columns <= GridFields::num_state_columns, "the sums live in the state's rows");
 
-// P2C of what the pressure equilibrium needs (the columns from cell_internal_energy on).
-struct EquilibriumSums {
-  static constexpr int num_components = 6;
+struct RelaxationSums {
+  static constexpr int num_components = num_relaxation_sum_columns;
   RealView mass, density, specific_energy;
   real_t gamma;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[6]) const {
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&value)[num_components]) const {
     const real_t volume = mass(p) / density(p), pressure = perfect_gas_pressure(gamma, density(p), specific_energy(p));
-    const real_t pressure_p = pressure > 0 ? pressure : real_t(0);
-    value[0] = mass(p) * specific_energy(p);
-    value[1] = volume * power(pressure_p, 1 / gamma);
-    value[2] = volume * pressure_p;
-    value[3] = volume * pressure_p * pressure_p;
-    value[4] = mass(p);
-    value[5] = mass(p) * density(p);
+    value[relaxation_volume] = volume;
+    value[relaxation_internal_energy] = mass(p) * specific_energy(p);
+    value[relaxation_mass] = mass(p);
+    value[relaxation_pressure_squared_volume] = volume * pressure * pressure;
+    value[relaxation_density_squared_volume] = mass(p) * density(p);
   }
 };
 
-// The relative spread (volume-weighted standard deviation over mean) of a quantity of a cell from
-// its sums of V q and V q^2.
-KOKKOS_INLINE_FUNCTION real_t relative_spread(real_t volume, real_t sum, real_t sum_of_squares) {
-  const real_t mean = sum / volume, variance = sum_of_squares / volume - mean * mean;
-  return variance > 0 && mean > 0 ? square_root(variance) / mean : real_t(0);
-}
+// What the particles of a cell share in the pressure relaxation, computed once per cell from its
+// sums and written over them (RelaxationSumColumn's first three columns of the row): the
+// fraction of the way the particles go (pressure_relaxation_fraction), the common pressure
+// P = (gamma - 1) sum(M e) / sum(V), and the internal energy per volume sum(M e) / sum(V).
+enum RelaxationColumn : int { relaxation_fraction = 0, relaxation_pressure, relaxation_energy_per_volume };
 
-// The pressure equilibrium within a cell: the particles of a cell are brought towards one
-// pressure, (gamma - 1) sum(M e) / sum(V), keeping the cell's volume and internal energy (so mass,
-// momentum and energy are conserved exactly), each particle's share of the volume in proportion
-// to V p^(1/gamma) (as if each were compressed or expanded isentropically to the common pressure).
-// Pressure differences within a cell are below what the grid resolves: the gas would even them
-// out acoustically within a step, but MPM's forces, made on the nodes, cannot. Only where the
-// pressures and densities of a cell differ by noise: the relaxation is 1 - s / 0.25 of the way, s
-// the larger relative spread (standard deviation over mean, volume-weighted) of the cell's
-// pressures and densities, the same for all its particles (so that the sums hold), and nothing
-// across a shock or a contact (s >= 0.25).
-struct EquilibrateCellPressure {
+struct CellRelaxation {
+  NodeFieldsView sums;
+  real_t gamma, dt, cell_size;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t c) const {
+    const real_t volume = sums(c, relaxation_volume), energy = sums(c, relaxation_internal_energy);
+    const real_t mass = sums(c, relaxation_mass), pressure_volume = (gamma - 1) * energy;
+    const real_t fraction = pressure_relaxation_fraction(
+        gamma, dt, cell_size, volume, mass, energy,
+        relative_spread(volume, pressure_volume, sums(c, relaxation_pressure_squared_volume)),
+        relative_spread(volume, mass, sums(c, relaxation_density_squared_volume)));
+    sums(c, relaxation_fraction) = fraction;
+    sums(c, relaxation_pressure) = fraction > 0 ? pressure_volume / volume : real_t(0);
+    sums(c, relaxation_energy_per_volume) = fraction > 0 ? energy / volume : real_t(0);
+  }
+};
+
+// The pressure relaxation within a cell: the particles of a cell go towards its common pressure P,
+// keeping the cell's volume and internal energy (so mass, momentum and energy are conserved
+// exactly), each particle's volume at P its acoustic share (relaxed_volume_share) and its internal
+// energy that volume's share of the cell's, by the cell's fraction of the way, the same for all
+// its particles (so that the sums hold). Pressure differences within a cell are below what the
+// grid resolves: the gas evens them out acoustically, but MPM's forces, made on the nodes, cannot,
+// and the particles' volume changes, sampled at scattered points, keep making new ones.
+struct RelaxCellPressure {
   RealView mass, density, specific_energy;
   IndexView cell;
-  NodeFieldsView sums;
+  NodeFieldsView cells;  // CellRelaxation's columns
   real_t gamma;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p) const {
     const index_t c = cell(p);
-    const real_t volume_c = sums(c, cell_volume), weight_c = sums(c, cell_entropy_weight);
-    if (!(volume_c > 0 && weight_c > 0)) return;
-    // The larger of the pressure's and the density's spread: a shock, or a particle unlike its
-    // neighbours (one that expanded alone, near a vacuum), is left alone.
-    const real_t pressure_spread =
-        relative_spread(volume_c, sums(c, cell_pressure_volume), sums(c, cell_pressure_squared_volume));
-    const real_t density_spread = relative_spread(volume_c, sums(c, cell_mass), sums(c, cell_density_squared_volume));
-    const real_t spread = pressure_spread > density_spread ? pressure_spread : density_spread;
-    const real_t relaxation = 1 - spread / real_t(0.25);
-    if (relaxation <= 0) return;
-    const real_t volume = mass(p) / density(p), pressure = perfect_gas_pressure(gamma, density(p), specific_energy(p));
-    const real_t pressure_p = pressure > 0 ? pressure : real_t(0);
-    const real_t equilibrium_volume = volume_c * volume * power(pressure_p, 1 / gamma) / weight_c;
-    const real_t equilibrium_energy = sums(c, cell_internal_energy) * equilibrium_volume / volume_c;  // M e
-    const real_t new_volume = volume + relaxation * (equilibrium_volume - volume);
-    const real_t new_energy = mass(p) * specific_energy(p) + relaxation * (equilibrium_energy - mass(p) * specific_energy(p));
+    const real_t fraction = cells(c, relaxation_fraction);
+    if (!(fraction > 0)) return;
+    const real_t m = mass(p), rho = density(p), e = specific_energy(p), volume = m / rho, energy = m * e;
+    const real_t equilibrium_volume =
+        relaxed_volume_share(gamma, volume, perfect_gas_pressure(gamma, rho, e), cells(c, relaxation_pressure));
+    const real_t equilibrium_energy = cells(c, relaxation_energy_per_volume) * equilibrium_volume;
+    const real_t new_volume = volume + fraction * (equilibrium_volume - volume);
+    const real_t new_energy = energy + fraction * (equilibrium_energy - energy);
     if (!(new_volume > 0 && new_energy > 0)) return;
-    density(p) = mass(p) / new_volume;
-    specific_energy(p) = new_energy / mass(p);
+    density(p) = m / new_volume;
+    specific_energy(p) = new_energy / m;
   }
 };
+
+// ---- Cell averages (numerics/cell_averaged_strain) ----------------------------------------------
+
+// The columns of the per-cell sums: particle volume, (P + Q) x volume, velocity divergence x volume.
+enum CellSumColumn : int { cell_volume = 0, cell_stress_volume, cell_divergence_volume, num_cell_sum_columns };
 
 // P2C(V), P2C((P + Q) V): the volume-weighted mean stress of each cell, before the force P2GD.
 struct VolumeAndStress {
@@ -227,12 +231,13 @@ struct AccelerateThenCarryMomentum {
 };
 
 // What step 10 interpolates at each particle, in one G2P-and-G2PD: GridFields::velocity_x ..
-// remap_velocity_y, of which it takes V-bar's values (the move, step 11) and the remapped
-// velocity's gradient.
-using MoveAndRemapVelocity = NodeColumns<4>;
+// volume_fraction, of which it takes V-bar's values (the move, step 11), the remapped velocity's
+// gradient and the volume fraction's value (the volume correction).
+using MoveAndRemapVelocity = NodeColumns<5>;
 enum MoveAndRemapVelocityColumn : int {
   moving_velocity = 0,
-  remapped_velocity = GridFields::remap_velocity_x - GridFields::velocity_x
+  remapped_velocity = GridFields::remap_velocity_x - GridFields::velocity_x,
+  volume_fraction_at_particle = GridFields::volume_fraction - GridFields::velocity_x
 };
 
 // Step 11's move, X' = X + dt V-bar, V-bar interpolated at the step-10 stencil; the walls, sides
@@ -240,22 +245,23 @@ enum MoveAndRemapVelocityColumn : int {
 struct AdvancePosition {
   RealView position_x, position_y;
   real_t dt;
-  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4]) const {
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, const real_t (&value)[5]) const {
     position_x(p) += dt * value[moving_velocity];
     position_y(p) += dt * value[moving_velocity + 1];
   }
 };
 
 // Sink of step 10: density, energy and artificial viscosity from div V (the pressure follows from
-// the density and the energy, perfect_gas_pressure, and is not stored); the particle
-// domain's stretches (diagonal of the deformation gradient, used by GIMP) from dVx/dx and dVy/dy.
+// the density and the energy, perfect_gas_pressure, and is not stored), the density corrected
+// towards the volume fraction (numerics/volume_correction); the particle domain's stretches
+// (diagonal of the deformation gradient, used by GIMP) from dVx/dx and dVy/dy.
 struct UpdateThermodynamics {
   using writes_only_its_particle = std::true_type;  // (WritesOnlyItsParticle)
   AdvancePosition advance;
   RealView density, specific_energy, viscosity, stretch_x, stretch_y;
   real_t dt, gamma, cell_size, c0, c1;
-  bool energy_consistent;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4], const real_t (&gradient)[4][2]) const {
+  bool energy_consistent, volume_correction;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[5], const real_t (&gradient)[5][2]) const {
     advance(p, value);
     const real_t dvx_dx = gradient[remapped_velocity][0], dvy_dy = gradient[remapped_velocity + 1][1];
     const real_t div_v = dvx_dx + dvy_dy;
@@ -267,7 +273,11 @@ struct UpdateThermodynamics {
     // exactly the kinetic energy the viscosity removed; the paper's update takes the new one.
     const real_t q_of_work = energy_consistent ? viscosity(p) : q;
     specific_energy(p) = advanced_specific_energy(e, dt, pressure, q_of_work, rho, div_v);
-    density(p) = advanced_density(rho, dt, div_v);
+    const real_t advanced = advanced_density(rho, dt, div_v);
+    density(p) = volume_correction
+                     ? volume_corrected_density(advanced, value[volume_fraction_at_particle],
+                                                acoustic_fraction(dt, perfect_gas_sound_speed(gamma, e), cell_size))
+                     : advanced;
     viscosity(p) = q;
   }
 };
@@ -281,7 +291,7 @@ struct StretchAndCellDivergence {
   IndexView cell;
   Access cell_sums;
   real_t dt;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[4], const real_t (&gradient)[4][2]) const {
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[5], const real_t (&gradient)[5][2]) const {
     advance(p, value);
     const real_t dvx_dx = gradient[remapped_velocity][0], dvy_dy = gradient[remapped_velocity + 1][1];
     stretch_x(p) *= 1 + dt * dvx_dx;
@@ -411,6 +421,7 @@ class Transfers final : public TransferKernels {
       : geometry_(geometry),
         fields_(fields),
         cell_averaged_strain_(config.numerics.cell_averaged_strain),
+        pressure_relaxation_(config.numerics.pressure_relaxation),
         gamma_(config.physics.gamma),
         cell_sums_("cell_sums", cell_averaged_strain_ ? geometry.num_cells() : 0, num_cell_sum_columns),
         accumulation_(fields, cell_sums_),
@@ -420,19 +431,7 @@ class Transfers final : public TransferKernels {
 
   void p2g_mass_momentum_force(const ParticleState& pt) override {
     accumulation_.prepare(pt, geometry_);
-    if (cell_averaged_strain_) {
-      // The particles of each cell brought towards one pressure ...
-      Kokkos::deep_copy(cell_sums_, real_t(0));
-      p2g_begin(accumulation_.cells(), cell_sums_);
-      p2c("p2c_volume", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_volume,
-          VolumeAndStress{pt.mass, pt.density, pt.specific_energy, pt.artificial_viscosity, gamma_});
-      p2c("p2c_equilibrium", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_internal_energy,
-          EquilibriumSums{pt.mass, pt.density, pt.specific_energy, gamma_});
-      p2g_end(accumulation_.cells(), cell_sums_);
-      for_each_particle("cell_pressure_equilibrium", pt.count,
-                        EquilibrateCellPressure{pt.mass, pt.density, pt.specific_energy, pt.cell,
-                                                cell_sums_, gamma_});
-      // ... then each cell's volume and (P + Q) x volume, for its mean stress.
+    if (cell_averaged_strain_) {  // each cell's volume and (P + Q) x volume, for its mean stress
       Kokkos::deep_copy(cell_sums_, real_t(0));
       p2g_begin(accumulation_.cells(), cell_sums_);
       p2c("p2c_volume_stress", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_volume,
@@ -502,13 +501,15 @@ class Transfers final : public TransferKernels {
                                                           pt.artificial_viscosity, pt.cell, cell_sums_, dt, k.gamma,
                                                           k.cell_size, k.viscosity_quadratic, k.viscosity_linear,
                                                           k.energy_consistent});
-      return;
+    } else {
+      g2p_and_g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), ParticleBatches{pt.count},
+                   MoveAndRemapVelocity{fields_.per_unit_mass, GridFields::velocity_x},
+                   UpdateThermodynamics{advance(pt, dt), pt.density, pt.specific_energy, pt.artificial_viscosity,
+                                        pt.domain_stretch_x, pt.domain_stretch_y, dt, k.gamma, k.cell_size,
+                                        k.viscosity_quadratic, k.viscosity_linear, k.energy_consistent,
+                                        k.volume_correction});
     }
-    g2p_and_g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), ParticleBatches{pt.count},
-                 MoveAndRemapVelocity{fields_.per_unit_mass, GridFields::velocity_x},
-                 UpdateThermodynamics{advance(pt, dt), pt.density, pt.specific_energy, pt.artificial_viscosity,
-                              pt.domain_stretch_x, pt.domain_stretch_y, dt, k.gamma, k.cell_size,
-                              k.viscosity_quadratic, k.viscosity_linear, k.energy_consistent});
+    if (pressure_relaxation_) relax_cell_pressures(pt, k, dt);
   }
 
   void p2g_output_projection(const ParticleState& pt, const NodeFieldsView& target) override {
@@ -525,12 +526,30 @@ class Transfers final : public TransferKernels {
   P2GStrategy strategy() const override { return accumulation_.strategy(); }
   size_t scratch_bytes() const override { return accumulation_.extra_bytes(); }
 
+  // The pressure relaxation after step 10. The particles are grouped by the cells they had before
+  // the move (pt.cell, and the cell order of this step's P2G, are still those): any grouping of
+  // neighbours conserves. The sums go into the state View's rows (RelaxationSumColumn).
+  void relax_cell_pressures(const ParticleState& pt, const ThermodynamicConstants& k, real_t dt) {
+    const NodeFieldsView sums = fields_.state;
+    Kokkos::deep_copy(Kokkos::subview(sums, Kokkos::ALL, std::make_pair(0, int(num_relaxation_sum_columns))),
+                      real_t(0));
+    p2g_begin(accumulation_.state(), sums);
+    p2c("p2c_relaxation_sums", pt.cell, accumulation_.traversal(pt), accumulation_.state(), relaxation_volume,
+        RelaxationSums{pt.mass, pt.density, pt.specific_energy, k.gamma});
+    p2g_end(accumulation_.state(), sums);
+    Kokkos::parallel_for("cell_relaxation", Kokkos::RangePolicy<ExecutionSpace>(0, geometry_.num_cells()),
+                         CellRelaxation{sums, k.gamma, dt, k.cell_size});
+    for_each_particle("cell_pressure_relaxation", pt.count,
+                      RelaxCellPressure{pt.mass, pt.density, pt.specific_energy, pt.cell, sums, k.gamma});
+  }
+
  private:
   static AdvancePosition advance(const ParticleState& pt, real_t dt) { return {pt.position_x, pt.position_y, dt}; }
 
   GridGeometry geometry_;
   GridFields fields_;
   bool cell_averaged_strain_;
+  bool pressure_relaxation_;
   real_t gamma_;
   NodeFieldsView cell_sums_;  // (cell, CellSumColumn) with cell-averaged strain
   Accumulation accumulation_;

@@ -22,6 +22,9 @@ struct ThermodynamicConstants {
   // the forces were made of (the step's velocity gradient is then that of the midpoint velocity,
   // compute_remap_velocity); the new Q only enters the next step's forces.
   bool energy_consistent = true;
+  // numerics/volume_correction: each particle's density corrected towards the volume fraction of
+  // the nodes around it (volume_corrected_density).
+  bool volume_correction = true;
 };
 
 // Bound to the grid fields of one slab (rebuilt with them).

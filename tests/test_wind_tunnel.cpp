@@ -118,6 +118,49 @@ const std::string kTunnelSides =
     R"({"left": {"type": "inflow"}, "right": {"type": "outflow"}, "bottom": {"type": "slip_wall"}, "top": {"type": "slip_wall"}})";
 const std::string kFreeStream = R"(, "free_stream": {"density": 1.4, "pressure": 1, "velocity": [3, 0]})";
 
+// The gas volume of each node's hat that the volume correction measures the particles' volumes
+// against: a cell's area inside the domain, half on a wall or an inflow side, a quarter in a
+// corner, none beyond the domain; 0 (unknown) within a cell of a far-field side; within a cell
+// diagonal of an obstacle the hat's part outside it, negative (only a shortfall counts there).
+TEST(SignedDistance, NodeGasVolumeIsTheHatsShareOfTheGasSpace) {
+  const CaseConfig config = parse_case(
+      tunnel_case(R"({"left": {"type": "inflow"}, "right": {"type": "outflow"}, "bottom": {"type": "slip_wall"},
+                     "top": {"type": "far_field"}})",
+                  kFreeStream + R"(, "obstacles": [{"type": "circle", "centre": [2, 1], "radius": 0.25}])"),
+      "gas_volume.json");
+  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+  const ObstacleGrid grid = make_obstacle_grid(config.obstacles, slab, config.boundaries);
+  auto volume = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grid.node_gas_volume);
+  const GridGeometry& g = slab.geometry;
+  const double area = g.spacing_x * g.spacing_y;  // 0.1 x 0.1
+  auto at = [&](double x, double y) {
+    return volume(g.node_index(static_cast<index_t>(std::lround((x - g.origin_x) / g.spacing_x)),
+                               static_cast<index_t>(std::lround((y - g.origin_y) / g.spacing_y))));
+  };
+  EXPECT_NEAR(at(1.0, 0.5), area, 1e-15);             // inside
+  EXPECT_NEAR(at(0.0, 0.5), area / 2, 1e-15);         // on the inflow side
+  EXPECT_NEAR(at(4.0, 0.5), area / 2, 1e-15);         // on the outflow side
+  EXPECT_NEAR(at(1.0, 0.0), area / 2, 1e-15);         // on the wall
+  EXPECT_NEAR(at(0.0, 0.0), area / 4, 1e-15);         // in a corner
+  EXPECT_EQ(at(-0.1, 0.5), 0.0);                      // beyond the domain
+  EXPECT_EQ(at(1.0, 2.0), 0.0);                       // on the far-field side
+  EXPECT_EQ(at(1.0, 1.9), 0.0);                       // a cell inside it
+  EXPECT_NEAR(at(1.0, 1.8), area, 1e-15);             // two cells inside it
+  EXPECT_EQ(at(2.0, 1.0), 0.0);                       // deep in the obstacle
+  EXPECT_NEAR(at(2.0, 1.5), area, 1e-15);             // 0.25 from it, beyond a diagonal (0.141)
+  // 0.05 from it: the hat outside the circle, by a finer midpoint rule than the solver's.
+  double outside = 0;
+  constexpr int n = 400;
+  for (int b = 0; b < n; ++b)
+    for (int a = 0; a < n; ++a) {
+      const double u = -1 + (a + 0.5) * 2 / n, w = -1 + (b + 0.5) * 2 / n;
+      if (std::hypot(2.0 + 0.1 * u - 2, 1.3 + 0.1 * w - 1) > 0.25) outside += (1 - std::fabs(u)) * (1 - std::fabs(w));
+    }
+  outside *= (2.0 / n) * (2.0 / n) * area;
+  EXPECT_LT(outside, 0.95 * area);  // the circle takes a part of it
+  EXPECT_NEAR(at(2.0, 1.3), -outside, 0.01 * area);
+}
+
 class GeometryErrors : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -702,15 +745,19 @@ TEST(WindTunnel, InvalidStateNamesTheParticle) {
 namespace mpmflow {
 namespace {
 
-// An empty Mach 3 tunnel with random placement, 40 x 20 cells, 9 particles per cell, to t = 1.5:
-// the particle density's scatter, with and without numerics/cell_averaged_strain, and the energy
-// balance (which the pressure equilibrium and the cell-averaged work must keep to round-off).
+// An empty Mach 3 tunnel with random placement, 40 x 20 cells, 9 particles per cell, to t = 1.5,
+// over x in [0.5, 3.5]: the scatter (standard deviation over mean) of the particles' density and
+// pressure, their means, the density the particles' volumes give (their mass over the sum of
+// their volumes, which must fill the tunnel: the mass per area), and the energy balance, which the pressure
+// relaxation, the volume correction and the cell-averaged work must keep to round-off.
 struct FreeStreamNoise {
-  double density_scatter, pressure_scatter, mean_density, energy_residual;
+  double density_scatter, pressure_scatter, mean_density, mean_pressure, volume_density, mass_per_area,
+      energy_residual;
 };
-FreeStreamNoise free_stream_noise(bool cell_averaged_strain, P2GStrategy p2g) {
+FreeStreamNoise free_stream_noise(bool remedies, bool cell_averaged_strain, P2GStrategy p2g) {
   CaseConfig config = parse_case(tunnel_case(kTunnelSides, kFreeStream), "free_stream.json");
   config.particles.per_cell_x = config.particles.per_cell_y = 3;
+  config.numerics.pressure_relaxation = config.numerics.volume_correction = remedies;
   config.numerics.cell_averaged_strain = cell_averaged_strain;
   config.numerics.p2g = p2g;
   const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
@@ -724,30 +771,49 @@ FreeStreamNoise free_stream_noise(bool cell_averaged_strain, P2GStrategy p2g) {
   const double residual = now.total_energy() - initial.total_energy() - f.entered.total_energy() +
                           f.left.total_energy() - f.boundary_work + f.kinetic_energy_stopped;
   const HostParticles h = to_host(solver);
-  double sum_rho = 0, sum_rho2 = 0, sum_p = 0, sum_p2 = 0, n = 0;
+  auto mass = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), solver.particles().mass);
+  double sum_rho = 0, sum_rho2 = 0, sum_p = 0, sum_p2 = 0, n = 0, sum_mass = 0, sum_volume = 0;
   for (size_t k = 0; k < h.x.size(); ++k) {
     if (h.x[k] < 0.5 || h.x[k] > 3.5) continue;
     sum_rho += h.rho[k], sum_rho2 += h.rho[k] * h.rho[k], sum_p += h.p[k], sum_p2 += h.p[k] * h.p[k], n += 1;
+    sum_mass += mass(k), sum_volume += mass(k) / h.rho[k];
   }
   const double mean_rho = sum_rho / n, mean_p = sum_p / n;
-  return {std::sqrt(sum_rho2 / n - mean_rho * mean_rho) / mean_rho, std::sqrt(sum_p2 / n - mean_p * mean_p) / mean_p,
-          mean_rho, residual / initial.total_energy()};
+  return {std::sqrt(sum_rho2 / n - mean_rho * mean_rho) / mean_rho,
+          std::sqrt(sum_p2 / n - mean_p * mean_p) / mean_p,
+          mean_rho,
+          mean_p,
+          sum_mass / sum_volume,
+          sum_mass / (3.0 * 2.0),
+          residual / initial.total_energy()};
 }
 
-TEST(WindTunnel, CellAveragedStrainQuietsAFreeStreamAndKeepsTheEnergyBalance) {
-  const FreeStreamNoise plain = free_stream_noise(false, P2GStrategy::automatic);
-  const FreeStreamNoise averaged = free_stream_noise(true, P2GStrategy::automatic);
-  const FreeStreamNoise sorted = free_stream_noise(true, P2GStrategy::sorted);
-  std::printf("[tunnel] free Mach 3 stream, density / pressure scatter: %.3f / %.3f, cell-averaged strain %.3f / %.3f "
-              "(mean density %.4f); energy balance residual %.1e, %.1e, sorted P2G %.1e\n",
-              plain.density_scatter, plain.pressure_scatter, averaged.density_scatter, averaged.pressure_scatter,
-              averaged.mean_density, plain.energy_residual, averaged.energy_residual, sorted.energy_residual);
-  EXPECT_LT(averaged.density_scatter, 0.5 * plain.density_scatter);
-  EXPECT_LT(averaged.density_scatter, 0.05);
-  EXPECT_LT(averaged.pressure_scatter, 0.07);
-  EXPECT_NEAR(averaged.mean_density, 1.4, 0.014);
-  EXPECT_NEAR(sorted.density_scatter, averaged.density_scatter, 0.01);
-  for (double residual : {plain.energy_residual, averaged.energy_residual, sorted.energy_residual})
+// The issue's bounds for a free stream of random particles (density scatter at most 5 %, pressure
+// 7 %, means within 1 %) with the defaults; without the pressure relaxation and the volume
+// correction the particles scatter more than twice as much (seen: 0.094 / 0.133 against
+// 0.041 / 0.054) and their volumes hold 1.0 % more than the space they fill (0.07 % with them).
+TEST(WindTunnel, PressureRelaxationAndVolumeCorrectionQuietAFreeStreamAndKeepTheEnergyBalance) {
+  const FreeStreamNoise plain = free_stream_noise(false, false, P2GStrategy::automatic);
+  const FreeStreamNoise quiet = free_stream_noise(true, false, P2GStrategy::automatic);
+  const FreeStreamNoise sorted = free_stream_noise(true, false, P2GStrategy::sorted);
+  const FreeStreamNoise averaged = free_stream_noise(true, true, P2GStrategy::automatic);
+  for (const auto& [name, r] : {std::pair{"without", plain}, {"defaults", quiet}, {"sorted P2G", sorted},
+                                {"cell-averaged strain", averaged}})
+    std::printf("[tunnel] free Mach 3 stream, %s: density / pressure scatter %.4f / %.4f, means %.4f / %.4f, mass "
+                "over the particles' volume %.4f (mass per area %.4f), energy balance residual %.1e\n",
+                name, r.density_scatter, r.pressure_scatter, r.mean_density, r.mean_pressure, r.volume_density,
+                r.mass_per_area, r.energy_residual);
+  EXPECT_LT(quiet.density_scatter, 0.05);
+  EXPECT_LT(quiet.pressure_scatter, 0.07);
+  EXPECT_NEAR(quiet.mean_density, 1.4, 0.014);
+  EXPECT_NEAR(quiet.mean_pressure, 1.0, 0.01);
+  // The particles' volumes fill their space: mass over volume is the mass per area.
+  const auto volume_error = [](const FreeStreamNoise& r) { return std::fabs(r.volume_density / r.mass_per_area - 1); };
+  EXPECT_LT(volume_error(quiet), 0.005);
+  EXPECT_GT(volume_error(plain), 2 * volume_error(quiet));
+  EXPECT_GT(plain.density_scatter, 2 * quiet.density_scatter);
+  EXPECT_NEAR(sorted.density_scatter, quiet.density_scatter, 0.01);
+  for (double residual : {plain.energy_residual, quiet.energy_residual, sorted.energy_residual, averaged.energy_residual})
     EXPECT_LT(std::fabs(residual), 1e-11);
 }
 
