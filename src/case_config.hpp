@@ -175,11 +175,10 @@ struct NumericsConfig {
   // obstacles nor far-field sides (ObstacleGrid::node_gas_volume).
   bool volume_correction = true;
   // A particle whose volume has doubled splits in two (particle_splitting.hpp), so that no gap
-  // opens in the gas where it expands strongly (Toro's test 2). Off by default: with it more
-  // particles pile up squeezed against the front of the coarse Mach 3 cylinder (100 x 50 cells,
-  // 3 x 3 particles per cell; 45 instead of 20-30 at t = 3), and its nose pressure comes out 70 %
-  // high instead of 3 % (README, Numerics); at 200 x 100 cells it is as good and as fast as without.
-  bool split_particles = false;
+  // opens in the gas where it expands strongly (Toro's test 2: 25 cells wide without at 100 cells).
+  // On by default since the volume correction expands the particles squeezed against a body's
+  // front, which splitting used to multiply (README, Numerics).
+  bool split_particles = true;
   // Two tiny particles of a cell (split particles compressed again to under a quarter of a placed
   // particle's volume) merge into one (particle_merging.hpp). On by default: it acts only on split
   // particles, and with splitting it cuts the Mach 3 cylinder's steps from 12160 to 4210 (200 x 100,

@@ -108,7 +108,7 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
   // boundaries, or from what added the particle: the open sides, splitting, migration.)
   if (s.merging.enabled()) {  // tiny particles of a cell merged in pairs (needs the cells)
     auto t = timers.scope(Phase::merging);
-    s.merging.merge(s.particles);
+    s.merging.merge(s.particles, slab.particle_boundaries());
   }
   if (settings.reorder_interval > 0 && step % settings.reorder_interval == 0) {  // 12. optional reordering
     auto t = timers.scope(Phase::reorder);

@@ -13,7 +13,8 @@ namespace {
 
 // Particle `gone` merged into particle `keep`. `gone` is left with no mass, which marks it for
 // removal.
-KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, index_t gone) {
+KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, index_t gone,
+                                       const ParticleBoundaries& boundaries) {
   const real_t m1 = pt.mass(keep), m2 = pt.mass(gone);
   const real_t m = m1 + m2;
   const real_t w1 = m1 / m, w2 = m2 / m;
@@ -30,8 +31,12 @@ KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, in
                       pt.domain_stretch_x(gone) * pt.domain_stretch_y(gone);
   const real_t scale = square_root(area / (sx * sy));
 
-  pt.position_x(keep) = w1 * pt.position_x(keep) + w2 * pt.position_x(gone);
-  pt.position_y(keep) = w1 * pt.position_y(keep) + w2 * pt.position_y(gone);
+  const real_t x = w1 * pt.position_x(keep) + w2 * pt.position_x(gone);
+  const real_t y = w1 * pt.position_y(keep) + w2 * pt.position_y(gone);
+  if (!boundaries.has_obstacles || boundaries.obstacles(x, y).distance > 0) {
+    pt.position_x(keep) = x;
+    pt.position_y(keep) = y;
+  }
   pt.velocity_x(keep) = w1 * pt.velocity_x(keep) + w2 * pt.velocity_x(gone);
   pt.velocity_y(keep) = w1 * pt.velocity_y(keep) + w2 * pt.velocity_y(gone);
   pt.artificial_viscosity(keep) = w1 * pt.artificial_viscosity(keep) + w2 * pt.artificial_viscosity(gone);
@@ -59,7 +64,7 @@ ParticleMerging::ParticleMerging(const CaseConfig& config, const GridGeometry& g
       initial_volume_(geometry.spacing_x * geometry.spacing_y /
                       (config.particles.per_cell_x * config.particles.per_cell_y)) {}
 
-index_t ParticleMerging::merge(ParticleState& particles) const {
+index_t ParticleMerging::merge(ParticleState& particles, const ParticleBoundaries& boundaries) const {
   if (!enabled_) return 0;
   const ParticleState pt = particles;
   const real_t initial_volume = initial_volume_;
@@ -100,7 +105,7 @@ index_t ParticleMerging::merge(ParticleState& particles) const {
   const IndexView gone_device = to_device_indices("merge_gone", gone);
   Kokkos::parallel_for(
       "merge_pairs", Kokkos::RangePolicy<ExecutionSpace>(0, num_pairs),
-      KOKKOS_LAMBDA(const index_t k) { merge_pair(pt, keep_device(k), gone_device(k)); });
+      KOKKOS_LAMBDA(const index_t k) { merge_pair(pt, keep_device(k), gone_device(k), boundaries); });
 
   // The merged-away particles removed, in increasing index order as the compaction wants.
   std::sort(gone.begin(), gone.end());

@@ -13,6 +13,7 @@
 // Determinism. The candidates of a cell are paired in the order of their ids (first with second,
 // third with fourth, ...), and the merged particle keeps the smaller id: the same pairs on any
 // number of ranks or threads and in any particle order (a cell's particles are on one rank).
+#include "boundary_conditions.hpp"
 #include "case_config.hpp"
 #include "particles.hpp"
 
@@ -34,8 +35,11 @@ class ParticleMerging {
   ParticleMerging(const CaseConfig& config, const GridGeometry& geometry);
 
   // Merges the tiny particles of each cell in pairs; `particles.cell` must be current. Local
-  // (no communication). Returns the number of merges on this rank.
-  index_t merge(ParticleState& particles) const;
+  // (no communication). A merged particle lies at the pair's centre of mass, or where that is in
+  // one of the obstacles of `boundaries` (the chord between two particles either side of a convex
+  // body's surface may cross it), at the kept particle's place. Returns the number of merges on
+  // this rank.
+  index_t merge(ParticleState& particles, const ParticleBoundaries& boundaries = ParticleBoundaries()) const;
   bool enabled() const { return enabled_; }
 
  private:

@@ -93,7 +93,7 @@ enum RelaxationSumColumn : int {
   relaxation_density_squared_volume,        // sum V rho^2
   num_relaxation_sum_columns
 };
-static_assert(num_relaxation_sum_columns <= GridFields::num_state_columns, "the sums live in the state's rows");
+static_assert(int(num_relaxation_sum_columns) <= int(GridFields::num_state_columns), "the sums live in the state's rows");
 
 struct RelaxationSums {
   static constexpr int num_components = num_relaxation_sum_columns;

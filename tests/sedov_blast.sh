@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# ctest: the cylindrical Sedov blast (cases/sedov.json, 60 x 60 cells of a quarter plane) against
-# the exact solution: total energy conserved within 1 % at t = 1, the energy balance closing to
-# round-off in the closed box, the shock radius within 2 % of R(1) = 0.75 (+1.2 % at this
-# resolution, -0.5 % at 120^2 and -1.3 % at 240^2 cells) and the same within 2 % in every direction. The
-# paper's energy update must fail the energy bound (it loses 17 %): the check can fail.
+# ctest: the cylindrical Sedov blast (cases/sedov.json, a quarter plane) against the exact
+# solution: at 60 x 60 cells total energy conserved within 1 % at t = 1, the energy balance closing
+# to round-off in the closed box, and the same radius within 2 % in every direction; at 120 x 120
+# cells (3 s) the same, and the shock radius within 2 % of R(1) = 0.75. (With particle splitting, the
+# default, the radius is +3.1 % at 60^2, +1.7 % at 120^2 and +1.1 % at 240^2: it converges from
+# above; the issue asks for 2 % at 240^2.) The paper's energy update must fail the energy bound (it
+# loses 17 %): the check can fail.
 # Usage: sedov_blast.sh MPMFLOW_BINARY SOURCE_DIR WORK_DIR
 set -euo pipefail
 binary=$1 source_dir=$2 work_dir=$3
@@ -11,7 +13,10 @@ rm -rf "$work_dir"
 mkdir -p "$work_dir"
 check=(/usr/bin/python3 "$source_dir/tools/sedov_check.py")
 "$binary" run "$source_dir/cases/sedov.json" --output "$work_dir/consistent" --progress-interval 100000 > "$work_dir/consistent.log"
-"${check[@]}" "$work_dir/consistent" --max-energy-change 0.01 --max-balance-residual 1e-10 \
+"${check[@]}" "$work_dir/consistent" --max-energy-change 0.01 --max-balance-residual 1e-10 --max-anisotropy 0.02
+"$binary" run "$source_dir/cases/sedov.json" --set domain/cells_x=120 --set domain/cells_y=120 \
+  --output "$work_dir/consistent_120" --progress-interval 100000 > "$work_dir/consistent_120.log"
+"${check[@]}" "$work_dir/consistent_120" --max-energy-change 0.01 --max-balance-residual 1e-10 \
   --max-radius-error 0.02 --max-anisotropy 0.02
 "$binary" run "$source_dir/cases/sedov.json" --set numerics/energy_consistent=false --output "$work_dir/paper" \
   --progress-interval 100000 > "$work_dir/paper.log"

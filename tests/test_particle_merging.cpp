@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <vector>
 
 #include "gas_physics.hpp"
+#include "geometry.hpp"
 #include "particle_merging.hpp"
 
 namespace mpmflow {
@@ -159,6 +161,35 @@ TEST(ParticleMerging, OffUnlessTheCaseAsksAndUnsplitOrModeratelyCompressedPartic
       to_particles(g, {{1, 0.3, 0.3, 0, 0, 0.1, 10.0, 1.0}, {2, 0.6, 0.6, 0, 0, 0.1, 10.0, 1.0},
                        {-1, 1.3, 0.3, 0, 0, 0.25, 3.0, 1.0}, {-2, 1.6, 0.6, 0, 0, 0.25, 3.0, 1.0}});
   EXPECT_EQ(ParticleMerging(merging_case(), g).merge(compressed), 0);
+}
+
+// Two tiny split particles of a cell either side of a circle's surface: their centre of mass is
+// inside it, so the merged particle takes the kept one's place (the smaller id, -8), outside.
+TEST(ParticleMerging, AMergedParticleIsNeverPutInsideAnObstacle) {
+  CaseConfig config = merging_case();
+  config.domain = {0, 4, 0, 4, 4, 4};
+  ObstacleConfig circle;
+  circle.centre_x = circle.centre_y = 2;
+  circle.radius = 0.8;
+  config.obstacles = {circle};
+  const GridSlab slab = make_grid_slab(config.domain, 0, 4);
+  const ParticleBoundaries boundaries(config, slab, make_obstacle_grid(config.obstacles, slab, config.boundaries));
+  const std::vector<HostParticle> pair = {{-8, 1.15, 1.9, 0, 0, 0.01, 1.0, 1.0}, {-6, 1.9, 1.15, 0, 0, 0.01, 1.0, 1.0}};
+  for (const HostParticle& p : pair) ASSERT_GT(std::hypot(p.x - 2, p.y - 2), 0.8);
+  ASSERT_LT(std::hypot(1.525 - 2, 1.525 - 2), 0.8);  // the centre of mass is inside
+  ParticleState pt = to_particles(slab.geometry, pair);
+  ASSERT_EQ(ParticleMerging(config, slab.geometry).merge(pt, boundaries), 1);
+  Totals totals;
+  const auto merged = by_id(pt, totals);
+  ASSERT_EQ(merged.count(-8), 1u);
+  EXPECT_DOUBLE_EQ(merged.at(-8)[2], 1.15);
+  EXPECT_DOUBLE_EQ(merged.at(-8)[3], 1.9);
+  EXPECT_DOUBLE_EQ(totals.mass, 0.02);
+  // Without the obstacle the pair merges at its centre of mass.
+  ParticleState free = to_particles(slab.geometry, pair);
+  ParticleMerging(config, slab.geometry).merge(free);
+  const auto centre = by_id(free, totals);
+  EXPECT_DOUBLE_EQ(centre.at(-8)[2], 1.525);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <numeric>
 #include <string>
@@ -31,6 +32,7 @@ struct SodResult {
   double cell_size = 0;
   ConservationTotals initial, final;
   long steps = 0;
+  long particles = 0;  // at the end (split particles included)
 };
 
 // cases/sod.json at `cells` cells along x (square cells: one cell across), no output.
@@ -75,6 +77,7 @@ SodResult run_sod(const CaseConfig& config) {
   DiagnosticsCalculator diagnostics(solver->particles().count);
   r.final = diagnostics.compute(solver->particles());
   r.steps = solver->step_count();
+  r.particles = solver->particles().count;
 
   const ParticleState& pt = solver->particles();
   auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.position_x);
@@ -125,7 +128,10 @@ void expect_accurate_and_converging(ShapeFunction shape, const std::string& name
   for (const SodResult* r : {&coarse, &fine}) {
     EXPECT_NEAR(r->shock_position, kShockPosition, 2 * r->cell_size);
     EXPECT_NEAR(r->contact_position, kContactPosition, 2 * r->cell_size);
-    EXPECT_NEAR(r->final.mass, r->initial.mass, 1e-14 * r->initial.mass);
+    // To round-off: splitting halves masses exactly, but the sum over a changed particle count is
+    // taken in another order, exact to about count x epsilon (seen: 1.3e-14 at 400 cells).
+    EXPECT_NEAR(r->final.mass, r->initial.mass,
+                std::max(1e-14, r->particles * std::numeric_limits<double>::epsilon()) * r->initial.mass);
   }
 }
 
