@@ -106,7 +106,9 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
   }
   // (Each particle's cell, which the next step's kernels start from, comes from the particle
   // boundaries, or from what added the particle: the open sides, splitting, migration.)
-  if (s.merging.enabled()) {  // tiny particles of a cell merged in pairs (needs the cells)
+  // Tiny split particles of a cell merged in pairs (needs the cells); none before the run's first
+  // split (a count over all ranks: every rank skips alike).
+  if (s.merging.enabled() && s.splitting.splits() > 0) {
     auto t = timers.scope(Phase::merging);
     s.merging.merge(s.particles, slab.particle_boundaries());
   }

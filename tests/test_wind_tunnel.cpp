@@ -544,9 +544,10 @@ TEST(WindTunnel, EmptyTunnelKeepsTheFreeStream) {
 // and bottom: gas leaves through the right and the top and enters through the bottom as the flow
 // needs, the mass balance closes, and the tunnel keeps its mass (seen: -0.5 % at t = 2; -8 % with
 // the traction scaled by the side nodes' share of a full node's mass, the model before the gas
-// outside gave the side nodes its inertia). Its mean pressure is 0.91 (0.85 before): the first two
-// cell rows along the bottom, where the gas enters, hold 10 % more mass at a pressure of 0.7 to
-// 0.8 (see README, far field).
+// outside gave the side nodes its inertia). Its mean particle pressure is 0.94 (0.91 without the
+// pressure relaxation and the volume correction, 0.85 before that): the first two cell rows along
+// the bottom, where the gas enters, hold more mass at a pressure of 0.7 to 0.8 (see README, far
+// field), and the particles' volumes over-fill the tunnel by 4 % (15 % without the correction).
 TEST(WindTunnel, SubsonicFarFieldLetsGasInAndOut) {
   const CaseConfig config = parse_case(
       tunnel_case(R"({"left": {"type": "inflow"}, "right": {"type": "far_field"}, "bottom": {"type": "far_field"},

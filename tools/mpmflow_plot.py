@@ -27,6 +27,14 @@ python3-numpy (scripts/setup.sh installs them).
       particles per grid cell, per output and on average over the last K outputs, against a
       density and a particle count per cell (e.g. the free stream ahead of a body); with the
       --max-*-error options, exits 1 when an error exceeds the given fraction.
+  mpmflow_plot.py scatter OUTPUT_DIR --x A B [--y C D] [--range LO HI] [--out PNG]
+                  [--max-density-scatter F] [--max-pressure-scatter F]
+                  [--density RHO] [--pressure P] [--max-mean-error F]
+      The particles' noise in a box of the last output: the scatter (standard deviation over mean)
+      of their density and pressure, their means, and their mass over their volume against the
+      mass per area; a map of the particles' density (plots/<case>_particle_density.png); with the
+      --max-* options, exits 1 when a scatter, or a mean's error against --density / --pressure,
+      exceeds the given fraction.
   mpmflow_plot.py forces OUTPUT_DIR [--obstacle K] [--last K] [--out DIR] [--min-drag X] [--max-drag Y]
       From diagnostics.csv: the drag and lift coefficients of an obstacle (the mean force between
       outputs over q_inf times its reference length) per output, their mean over the last K
@@ -527,6 +535,55 @@ def region(args):
     return 1 if failed else 0
 
 
+def particle_scatter(args):
+    """The particles' noise in a box of the last output: the scatter (standard deviation over mean)
+    of their density and pressure, their means, and their mass over their volume against the mass
+    per area (the particles' volumes must fill their space); a map of their density as PNG."""
+    s = Snapshot(snapshot_files(args.output_dir)[-1])
+    x0, x1 = args.x
+    y0, y1 = args.y if args.y else (s.extent()[2], s.extent()[3])
+    inside = (s.x >= x0) & (s.x < x1) & (s.y >= y0) & (s.y < y1)
+    if not np.any(inside):
+        sys.exit(f"mpmflow_plot: error: no particle in [{x0}, {x1}] x [{y0}, {y1}]")
+    rho, p, m = (s.particles[k][inside] for k in ("density", "pressure", "mass"))
+    density_scatter, pressure_scatter = float(np.std(rho) / np.mean(rho)), float(np.std(p) / np.mean(p))
+    print(f"t = {s.time:.4f}, {np.count_nonzero(inside)} particles in [{x0}, {x1}] x [{y0}, {y1}]")
+    print(f"density  scatter {100 * density_scatter:.2f}%, mean {np.mean(rho):.4f}")
+    print(f"pressure scatter {100 * pressure_scatter:.2f}%, mean {np.mean(p):.4f}")
+    print(f"mass over the particles' volume {np.sum(m) / np.sum(m / rho):.4f}, "
+          f"mass per area {np.sum(m) / ((x1 - x0) * (y1 - y0)):.4f}")
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, (ax, hist) = plt.subplots(1, 2, figsize=(10, 4), gridspec_kw={"width_ratios": [3, 2]})
+    lo, hi = args.range if args.range else robust_range(rho)
+    dots = ax.scatter(s.x[inside], s.y[inside], c=rho, s=3, cmap="viridis", vmin=lo, vmax=hi, linewidths=0)
+    fig.colorbar(dots, ax=ax, label="particle density")
+    draw_outlines(ax, s)
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_aspect("equal")
+    ax.set_title(f"{s.case}, t = {s.time:.3g}: the particles in the box")
+    hist.hist(rho, bins=60, range=(lo, hi), color="tab:blue")
+    hist.set_xlabel("particle density")
+    hist.set_ylabel("particles")
+    hist.set_title(f"density scatter {100 * density_scatter:.1f}%, pressure {100 * pressure_scatter:.1f}%")
+    fig.tight_layout()
+    target = args.out or os.path.join("plots", f"{s.case}_particle_density.png")
+    os.makedirs(os.path.dirname(target) or ".", exist_ok=True)
+    save(fig, target)
+    print(target)
+    failed = [breaks_bound("density scatter", density_scatter, args.max_density_scatter, percent(2)),
+              breaks_bound("pressure scatter", pressure_scatter, args.max_pressure_scatter, percent(2))]
+    for label, mean, expected in (("mean density", np.mean(rho), args.density),
+                                  ("mean pressure", np.mean(p), args.pressure)):
+        if expected is not None:
+            error = abs(float(mean) - expected) / expected
+            print(f"  {label} against {expected}: error {100 * error:.2f}%")
+            failed.append(breaks_bound(f"{label} error", error, args.max_mean_error, percent(2)))
+    return 1 if any(failed) else 0
+
+
 def mass_balance(args):
     path, rows = read_diagnostics(args.output_dir)
     if not rows or "mass_in" not in rows[0]:
@@ -700,6 +757,17 @@ def main():
     box.add_argument("--last", type=int, default=1, help="average over the last K outputs")
     box.add_argument("--max-density-error", type=float)
     box.add_argument("--max-per-cell-error", type=float)
+    noise = sub.add_parser("scatter", help="the particles' density and pressure scatter in a box, and a density map")
+    noise.add_argument("output_dir")
+    noise.add_argument("--x", type=float, nargs=2, required=True, metavar=("A", "B"))
+    noise.add_argument("--y", type=float, nargs=2, metavar=("C", "D"), help="(default: the whole height)")
+    noise.add_argument("--range", type=float, nargs=2, metavar=("LO", "HI"), help="colour range of the map")
+    noise.add_argument("--out", help="PNG path (default: plots/<case>_particle_density.png)")
+    noise.add_argument("--max-density-scatter", type=float)
+    noise.add_argument("--max-pressure-scatter", type=float)
+    noise.add_argument("--density", type=float, help="the expected mean density")
+    noise.add_argument("--pressure", type=float, help="the expected mean pressure")
+    noise.add_argument("--max-mean-error", type=float, help="largest relative error of the means")
     balance = sub.add_parser("mass-balance", help="the mass balance with the open sides, from diagnostics.csv")
     balance.add_argument("output_dir")
     balance.add_argument("--max-residual", type=float)
@@ -730,6 +798,8 @@ def main():
         plot_sod(args)
     elif args.command == "region":
         sys.exit(region(args))
+    elif args.command == "scatter":
+        sys.exit(particle_scatter(args))
     elif args.command == "mass-balance":
         sys.exit(mass_balance(args))
     elif args.command == "riemann-error":
