@@ -15,7 +15,7 @@ void project_particles_to_grid(const StepState& s) {
     auto t = timers.scope(Phase::grid_reset);
     reset_grid(grid);
   }
-  {  // 3. m = P2G(M), mv = P2G(M V), f = P2GD((P + Q) M / rho) (and P2G(P M / rho))
+  {  // 3. m = P2G(M), mv = P2G(M V), f = P2GD((P + Q) M / rho) (and P2G(P M / rho), P2G(M / rho))
     auto t = timers.scope(Phase::p2g_mass_momentum_force);
     s.transfers.p2g_mass_momentum_force(s.particles);
   }

@@ -32,7 +32,8 @@ class TransferKernels {
  public:
   virtual ~TransferKernels() = default;
 
-  // 3. m = P2G(M), mv = P2G(M V), f = P2GD((P + Q) M / rho) into the state columns (zeroed).
+  // 3. m = P2G(M), mv = P2G(M V), f = P2GD((P + Q) M / rho) into the state columns (zeroed), with
+  // P2G(P M / rho) for the time step and P2G(M / rho) for the volume correction.
   // With numerics/cell_averaged_strain, P + Q is its volume-weighted mean over the particle's cell.
   // In the same pass, the particles whose state is in doubt (particles_in_doubt).
   virtual void p2g_mass_momentum_force(const ParticleState& particles) = 0;
@@ -51,7 +52,10 @@ class TransferKernels {
   // viscosity and (GIMP) the particle domain's stretches; and, with V-bar = G2P(mv' / m) at the
   // same stencil, the move X' = X + dt V-bar (the walls, obstacles and sides come after). With
   // numerics/cell_averaged_strain, the volume-weighted mean divergence of the particle's cell
-  // changes its density and energy, and that cell's mean P + Q of the force does the work.
+  // changes its density and energy, and that cell's mean P + Q of the force does the work. With
+  // numerics/volume_correction, the density is corrected towards the nodes' volume fraction; with
+  // numerics/pressure_relaxation, the particles of each cell (the cell of before the move) then go
+  // towards its common pressure (the step's state columns are spent: they hold the cell sums).
   virtual void g2pd_particle_update(const ParticleState& particles, const ThermodynamicConstants& constants,
                                     real_t dt) = 0;
   // m = P2G(M), mv = P2G(M V), and P2G(M rho), P2G(M P), P2G(M E) into `target`
