@@ -184,26 +184,27 @@ DeviceObstacleSet copy_to_device(const HostObstacleSet& host) {
 
 namespace {
 
-// The share of a node's hat function along one axis that lies within [lo, hi] (the node on the
-// grid's lines, so: all of it inside, half on the edge, none beyond).
-double hat_share_within(double node, double lo, double hi, double spacing) {
-  const double tolerance = 0.25 * spacing;
-  if (node < lo - tolerance || node > hi + tolerance) return 0;
-  if (node < lo + tolerance || node > hi - tolerance) return 0.5;
-  return 1;
+// The share of a node's hat function along one axis that lies within the domain, from the node's
+// global index g on that axis (the domain's nodes are 0 .. cells): all of it inside, half on a
+// side, none beyond.
+double hat_share_within(index_t g, index_t cells) {
+  if (g < 0 || g > cells) return 0;
+  return g == 0 || g == cells ? 0.5 : 1;
 }
 
-// ObstacleGrid::node_gas_volume. Within `margin` of an obstacle the hat's part outside it is
-// integrated by the midpoint rule on 16 x 16 points per cell, and the volume stored negative.
-RealView node_gas_volumes(const HostObstacleSet& obstacles, const GridSlab& slab, const BoundaryConfig& sides,
-                          double margin) {
+// ObstacleGrid::node_gas_volume, from each node's signed distance to the obstacles. Within
+// `margin` of an obstacle the hat's part outside it is integrated by the midpoint rule on 16 x 16
+// points per cell, and the volume stored negative.
+RealView node_gas_volumes(const HostObstacleSet& obstacles, const std::vector<real_t>& node_distance,
+                          const GridSlab& slab, const BoundaryConfig& sides, double margin) {
   const GridGeometry& geo = slab.geometry;
-  const double hx = geo.spacing_x, hy = geo.spacing_y, reach_x = 1.25 * hx, reach_y = 1.25 * hy;
-  auto near_far_field = [&](double x, double y) {
-    return (sides.left == BoundaryType::far_field && x < slab.domain_x_min + reach_x) ||
-           (sides.right == BoundaryType::far_field && x > slab.domain_x_max - reach_x) ||
-           (sides.bottom == BoundaryType::far_field && y < slab.domain_y_min + reach_y) ||
-           (sides.top == BoundaryType::far_field && y > slab.domain_y_max - reach_y);
+  const double hx = geo.spacing_x, hy = geo.spacing_y;
+  // Within a cell of a far-field side: the side's node line and the one inside it.
+  auto near_far_field = [&](index_t gx, index_t gy) {
+    return (sides.left == BoundaryType::far_field && gx <= 1) ||
+           (sides.right == BoundaryType::far_field && gx >= slab.global_cells_x - 1) ||
+           (sides.bottom == BoundaryType::far_field && gy <= 1) ||
+           (sides.top == BoundaryType::far_field && gy >= slab.global_cells_y - 1);
   };
   auto inside_domain = [&](double x, double y) {
     return x >= slab.domain_x_min && x <= slab.domain_x_max && y >= slab.domain_y_min && y <= slab.domain_y_max;
@@ -213,11 +214,11 @@ RealView node_gas_volumes(const HostObstacleSet& obstacles, const GridSlab& slab
   auto host = Kokkos::create_mirror_view(volume);
   for (index_t j = 0; j < geo.nodes_y; ++j)
     for (index_t i = 0; i < geo.nodes_x; ++i) {
-      const double x = geo.node_x(i), y = geo.node_y(j);
-      double v = hx * hy * hat_share_within(x, slab.domain_x_min, slab.domain_x_max, hx) *
-                 hat_share_within(y, slab.domain_y_min, slab.domain_y_max, hy);
-      if (v > 0 && near_far_field(x, y)) v = 0;
-      if (v > 0 && !obstacles.empty() && obstacles(x, y).distance < margin) {
+      const index_t gx = i + slab.node_offset_x, gy = j + slab.node_offset_y, node = geo.node_index(i, j);
+      double v = hx * hy * hat_share_within(gx, slab.global_cells_x) * hat_share_within(gy, slab.global_cells_y);
+      if (v > 0 && near_far_field(gx, gy)) v = 0;
+      if (v > 0 && node_distance[node] < margin) {
+        const double x = geo.node_x(i), y = geo.node_y(j);
         double sum = 0;
         for (int b = 0; b < samples; ++b)
           for (int a = 0; a < samples; ++a) {
@@ -227,7 +228,7 @@ RealView node_gas_volumes(const HostObstacleSet& obstacles, const GridSlab& slab
           }
         v = -sum * (2.0 / samples) * (2.0 / samples) * hx * hy;
       }
-      host(geo.node_index(i, j)) = v;
+      host(node) = v;
     }
   Kokkos::deep_copy(volume, host);
   return volume;
@@ -243,15 +244,7 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   const GridGeometry& geo = slab.geometry;
   grid.cell_near_obstacle = IndexView("cell_near_obstacle", geo.num_cells());
   grid.num_obstacles = static_cast<int>(obstacles.size());
-  grid.node_gas_volume =
-      node_gas_volumes(host, slab, sides, std::hypot(slab.geometry.spacing_x, slab.geometry.spacing_y));
-  if (host.empty()) {
-    grid.obstacle_nodes = IndexView("obstacle_nodes", 0);
-    grid.obstacle_normals = NodeFieldsView("obstacle_normals", 0, 2);
-    grid.obstacle_of_node = IndexView("obstacle_of_node", 0);
-    return grid;
-  }
-  // Evaluated once on the host at start-up (the obstacles are at rest).
+  // Evaluated once on the host at start-up (the obstacles are at rest); 1e30 without obstacles.
   std::vector<real_t> node_distance(geo.num_nodes());
   std::vector<index_t> nodes;
   std::vector<real_t> normals_x, normals_y;
@@ -266,6 +259,14 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
         normals_y.push_back(sd.normal_y);
       }
     }
+  grid.node_gas_volume =
+      node_gas_volumes(host, node_distance, slab, sides, std::hypot(geo.spacing_x, geo.spacing_y));
+  if (host.empty()) {
+    grid.obstacle_nodes = IndexView("obstacle_nodes", 0);
+    grid.obstacle_normals = NodeFieldsView("obstacle_normals", 0, 2);
+    grid.obstacle_of_node = IndexView("obstacle_of_node", 0);
+    return grid;
+  }
   grid.obstacle_nodes = IndexView("obstacle_nodes", nodes.size());
   grid.obstacle_normals = NodeFieldsView("obstacle_normals", nodes.size(), 2);
   auto nodes_host = Kokkos::create_mirror_view(grid.obstacle_nodes);

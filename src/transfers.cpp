@@ -17,8 +17,9 @@ using DoubtCounter = Kokkos::Experimental::ScatterView<index_t*, Kokkos::LayoutL
 
 // P2G(I, M), P2G(I, M Vx), P2G(I, M Vy), P2G(I, P M / rho) for the nodes' sound speed (the
 // time step, node_signal_speed), and P2G(I, M / rho) for the volume correction's volume fraction:
-// GridFields::mass .. volume. For a perfect gas P M / rho = (gamma - 1) M e: no division. The time step's check of the particle states comes
-// with it, since it reads them anyway: a particle not surely valid adds to `in_doubt`.
+// GridFields::mass .. volume. For a perfect gas P M / rho = (gamma - 1) M e needs no division.
+// The time step's check of the particle states comes with it, since it reads them anyway: a
+// particle not surely valid adds to `in_doubt`.
 struct MassMomentumAndPressureVolume {
   static constexpr int num_components = 5;
   RealView mass, velocity_x, velocity_y, specific_energy, density;
@@ -133,7 +134,7 @@ struct CellRelaxation {
 
 // The pressure relaxation within a cell: the particles of a cell go towards its common pressure P,
 // keeping the cell's volume and internal energy (so mass, momentum and energy are conserved
-// exactly), each particle's volume at P its acoustic share (relaxed_volume_share) and its internal
+// exactly), each particle's volume at P its isentropic share (relaxed_volume_share) and its internal
 // energy that volume's share of the cell's, by the cell's fraction of the way, the same for all
 // its particles (so that the sums hold). Pressure differences within a cell are below what the
 // grid resolves: the gas evens them out acoustically, but MPM's forces, made on the nodes, cannot,
