@@ -18,12 +18,18 @@
 // id. Each particle field a kernel reads or writes counts once; grid columns count once per node
 // (read, write, or 16 bytes for read-modify-write), and nodes ~ cells = particles / ppc. Stencil
 // weights are computed, not stored, and cost nothing. GIMP kernels also read the two stretches.
-//   p2g_mass_momentum_force     reads x y cell m vx vy e q rho               = 68; grid 6 RMW = 96/ppc
+//   p2g_mass_momentum_force     reads x y cell m vx vy e q rho               = 68; grid 7 RMW = 112/ppc
 //   g2p_p2g_velocity_momentum   reads x y cell m vx vy, writes vx vy         = 68; grid 2 read + 2 RMW = 48/ppc
 //   (unfused) g2p_velocity_acceleration  reads x y cell vx vy, writes vx vy  = 52; grid 2 read = 16/ppc
 //   (unfused) p2g_momentum_remap         reads x y cell m vx vy              = 44; grid 2 RMW = 32/ppc
 //   g2pd_particle_update        reads x y cell rho e q, writes x y rho e q   = 84 (GIMP: stretches also
-//                               written, +16); grid 4 read (V-bar, remapped velocity) = 32/ppc
+//                               written, +16); grid 5 read (V-bar, remapped velocity, volume
+//                               fraction) = 40/ppc. With the pressure relaxation (the default), its
+//                               sums read cell m rho e (28) and its update reads cell m rho e and
+//                               writes rho e (44): +72; per cell 5 columns zeroed, 5 RMW, the cell
+//                               pass's 5 read and 3 written, and the update's 3 read = 208/ppc
+//   splitting                   the candidates' pass reads m rho and the two stretches = 32
+//   merging (after a first split) the candidates' pass reads id m rho      = 24
 //   particle_move (boundaries)  the rules read x y (and write them where a rule moves the particle);
 //                               the cells read x y, write cell              = 36
 //   time_step                   the particles' check rides on P2G (particles_in_doubt) = 0; grid 4 read
@@ -31,8 +37,10 @@
 //   reorder                     the cell order (a counting sort on CPUs: cell read twice, order written),
 //                               then every field (10 reals, cell, id: 92 bytes) read through the
 //                               permutation, written to a temporary and copied back = 3 x 92 + 8 + 4 = 288
-//   grid_reset 8 columns written = 64/ppc; grid_momentum_update 5 read + 6 written = 88/ppc;
-//   grid_remap_velocity 3 read + 2 written = 40/ppc.
+//   grid_reset (two calls a step: the 7 state columns, then the 2 momentum columns) 9 columns
+//   written a step = 36/ppc a call; grid_momentum_update 5 read + 6 written = 88/ppc;
+//   grid_remap_velocity 3 read + 2 written = 40/ppc, and with the volume correction (the default)
+//   the volume fraction: 2 read + 1 written = 24/ppc.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -176,15 +184,17 @@ struct Traffic {
 };
 const std::map<Phase, Traffic>& traffic_model() {
   static const std::map<Phase, Traffic> model = {
-      {Phase::p2g_mass_momentum_force, {68, 96, true}},
+      {Phase::p2g_mass_momentum_force, {68, 112, true}},
       {Phase::g2p_p2g_velocity_momentum, {68, 48, true}},
       {Phase::g2p_velocity_acceleration, {52, 16, true}},
       {Phase::p2g_momentum_remap, {44, 32, true}},
-      {Phase::g2pd_particle_update, {84, 32, true}},
+      {Phase::g2pd_particle_update, {84, 40, true}},
       {Phase::particle_move, {36, 0, false}},
       {Phase::time_step, {0, 32, false}},
       {Phase::reorder, {288, 0, false}},
-      {Phase::grid_reset, {0, 64, false}},
+      {Phase::splitting, {32, 0, false}},
+      {Phase::merging, {24, 0, false}},
+      {Phase::grid_reset, {0, 36, false}},
       {Phase::grid_momentum_update, {0, 88, false}},
       {Phase::grid_remap_velocity, {0, 40, false}}};
   return model;
@@ -197,7 +207,13 @@ double phase_bytes(Phase phase, const Run& run) {
   double per_particle = it->second.particle_bytes;
   if (run.spec.shape == "gimp" && it->second.stencil) per_particle += 16;
   if (run.spec.shape == "gimp" && phase == Phase::g2pd_particle_update) per_particle += 16;
-  return per_particle * run.particles + it->second.node_bytes * run.nodes;
+  double per_node = it->second.node_bytes;
+  if (run.config.numerics.pressure_relaxation && phase == Phase::g2pd_particle_update) {
+    per_particle += 72;
+    per_node += 208;
+  }
+  if (run.config.numerics.volume_correction && phase == Phase::grid_remap_velocity) per_node += 24;
+  return per_particle * run.particles + per_node * run.nodes;
 }
 
 double& measured_triad_GBps() {
