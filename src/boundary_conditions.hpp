@@ -79,6 +79,16 @@ class GridBoundaryConditions {
   ObstacleGrid obstacles_;
 };
 
+// A particle's cell, which the next step's kernels start from: its local cell, or left_the_domain
+// for one that left through an open side (OpenBoundaries::exchange removes or recycles it).
+struct ParticleLocator {
+  DomainBox domain;
+  GridGeometry grid;
+  KOKKOS_INLINE_FUNCTION index_t operator()(real_t x, real_t y) const {
+    return domain.outside(x, y) ? index_t(left_the_domain) : grid.cell_of(x, y);
+  }
+};
+
 // After the move (Algorithm 1, step 11, X' = X + dt V-bar, made by the step-10 kernel): a particle
 // that crossed a slip wall is mirrored back and loses its outward normal velocity; one that
 // entered an obstacle is put back on its surface, along the normal, and loses its inward normal
@@ -97,6 +107,7 @@ struct ParticleBoundaries {
   ParticleBoundaries() = default;
   ParticleBoundaries(const CaseConfig& config, const GridSlab& slab, const ObstacleGrid& obstacle_grid);
 
+  ParticleLocator locator() const { return {domain, grid}; }
   // Applies the rules above to moved particle p; where an obstacle takes its inward normal
   // velocity, returns true with the momentum it took (the particle's loss: the gas's impulse on the
   // obstacle) and the obstacle. `stopped` gets the kinetic energy the rules took from it.
@@ -104,12 +115,17 @@ struct ParticleBoundaries {
                                     index_t& obstacle, double& stopped) const;
 };
 
-// Algorithm 1, step 11, after the particles have moved by dt V-bar: the rules above for every one,
-// and every particle's cell, which the next step's kernels start from (left_the_domain for those
-// that left through an open side: OpenBoundaries::exchange removes or recycles them).
+// Algorithm 1, step 11, after the particles have moved by dt V-bar: the rules above for every one.
 // With `forces`, adds to each obstacle's force the momentum its surface took from the particles
 // over dt (the inward normal velocity of those that entered it). Returns the kinetic energy the
-// particles lost to slip walls and obstacles (the velocity these rules take).
+// particles lost to slip walls and obstacles (the velocity these rules take). The cells are
+// not updated: locate_particles, or a pass that already visits every particle after the rules
+// (the pressure relaxation's: TransferKernels::relax_pressures_and_locate).
+double apply_particle_rules(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
+                            ObstacleForces* forces = nullptr);
+// Every particle's cell (ParticleLocator).
+void locate_particles(const ParticleBoundaries& boundaries, const ParticleState& particles);
+// Both.
 double apply_particle_boundaries(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,
                                  ObstacleForces* forces = nullptr);
 

@@ -85,10 +85,15 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     auto t = timers.scope(Phase::g2pd_particle_update);
     transfers.g2pd_particle_update(particles, settings.thermodynamics, dt);
   }
-  {  // 11. walls, open sides and obstacles; the cell map
+  {  // 11. walls, open sides and obstacles; the cell map (unless the relaxation's pass makes it)
     auto t = timers.scope(Phase::particle_move);
-    const double stopped = apply_particle_boundaries(slab.particle_boundaries(), particles, dt, &s.obstacle_forces);
+    const double stopped = apply_particle_rules(slab.particle_boundaries(), particles, dt, &s.obstacle_forces);
     s.open_sides.add_boundary_energy(work_of_conditions, stopped);
+    if (!transfers.relaxes_pressure()) locate_particles(slab.particle_boundaries(), particles);
+  }
+  if (transfers.relaxes_pressure()) {  // each cell's pressures evened out at the acoustic rate; the cell map
+    auto t = timers.scope(Phase::pressure_relaxation);
+    transfers.relax_pressures_and_locate(particles, settings.thermodynamics, dt, slab.particle_boundaries().locator());
   }
   {  // particles that left through open sides removed (or recycled), the free stream's entered
     auto t = timers.scope(Phase::open_sides);

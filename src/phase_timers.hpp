@@ -24,6 +24,7 @@ enum class Phase : int {
   grid_remap_velocity,        // the remapped node velocity, for 10.
   g2pd_particle_update,       // 10. and the move of 11.
   particle_move,              // 11.: walls and obstacles after the move; the cell map
+  pressure_relaxation,        // each cell's pressures evened out (numerics/pressure_relaxation); then the cell map
   open_sides,                 // particles removed or recycled at open sides, the free stream's entered
   splitting,                  // particles whose volume has doubled split in two
   migration,                  // particles to the ranks owning their cells
@@ -39,8 +40,9 @@ constexpr std::array<const char*, static_cast<size_t>(Phase::count)> phase_names
     "time_step",           "grid_reset",           "p2g_mass_momentum_force",   "halo_exchange",
     "boundary_conditions", "grid_momentum_update", "g2p_p2g_velocity_momentum", "g2p_velocity_acceleration",
     "p2g_momentum_remap",  "grid_remap_velocity",  "g2pd_particle_update",      "particle_move",
-    "open_sides",          "splitting",            "migration",                 "merging",
-    "reorder",             "load_balance",         "output",                    "checkpoint"};
+    "pressure_relaxation", "open_sides",           "splitting",                 "migration",
+    "merging",             "reorder",              "load_balance",              "output",
+    "checkpoint"};
 
 constexpr const char* phase_name(Phase phase) { return phase_names[static_cast<size_t>(phase)]; }
 

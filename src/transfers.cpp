@@ -139,13 +139,16 @@ struct CellRelaxation {
 // its particles (so that the sums hold). Pressure differences within a cell are below what the
 // grid resolves: the gas evens them out acoustically, but MPM's forces, made on the nodes, cannot,
 // and the particles' volume changes, sampled at scattered points, keep making new ones.
-struct RelaxCellPressure {
-  RealView mass, density, specific_energy;
+// The particle's new cell comes with it (relax_pressures_and_locate), once its old one is read.
+struct RelaxCellPressureAndLocate {
+  RealView mass, density, specific_energy, position_x, position_y;
   IndexView cell;
   NodeFieldsView cells;  // CellRelaxation's columns
   real_t gamma;
+  ParticleLocator locate;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p) const {
     const index_t c = cell(p);
+    cell(p) = locate(position_x(p), position_y(p));
     const real_t fraction = cells(c, relaxation_fraction);
     if (!(fraction > 0)) return;
     const real_t m = mass(p), rho = density(p), e = specific_energy(p), volume = m / rho, energy = m * e;
@@ -510,7 +513,6 @@ class Transfers final : public TransferKernels {
                                         k.viscosity_quadratic, k.viscosity_linear, k.energy_consistent,
                                         k.volume_correction});
     }
-    if (pressure_relaxation_) relax_cell_pressures(pt, k, dt);
   }
 
   void p2g_output_projection(const ParticleState& pt, const NodeFieldsView& target) override {
@@ -527,10 +529,13 @@ class Transfers final : public TransferKernels {
   P2GStrategy strategy() const override { return accumulation_.strategy(); }
   size_t scratch_bytes() const override { return accumulation_.extra_bytes(); }
 
-  // The pressure relaxation after step 10. The particles are grouped by the cells they had before
-  // the move (pt.cell, and the cell order of this step's P2G, are still those): any grouping of
-  // neighbours conserves. The sums go into the state View's rows (RelaxationSumColumn).
-  void relax_cell_pressures(const ParticleState& pt, const ThermodynamicConstants& k, real_t dt) {
+  bool relaxes_pressure() const override { return pressure_relaxation_; }
+
+  // The particles are grouped by the cells they had before the move (pt.cell, and the cell order of
+  // this step's P2G, are still those): any grouping of neighbours conserves. The sums go into the
+  // state View's rows (RelaxationSumColumn).
+  void relax_pressures_and_locate(const ParticleState& pt, const ThermodynamicConstants& k, real_t dt,
+                                  const ParticleLocator& locate) override {
     const NodeFieldsView sums = fields_.state;
     Kokkos::deep_copy(Kokkos::subview(sums, Kokkos::ALL, std::make_pair(0, int(num_relaxation_sum_columns))),
                       real_t(0));
@@ -541,7 +546,8 @@ class Transfers final : public TransferKernels {
     Kokkos::parallel_for("cell_relaxation", Kokkos::RangePolicy<ExecutionSpace>(0, geometry_.num_cells()),
                          CellRelaxation{sums, k.gamma, dt, k.cell_size});
     for_each_particle("cell_pressure_relaxation", pt.count,
-                      RelaxCellPressure{pt.mass, pt.density, pt.specific_energy, pt.cell, sums, k.gamma});
+                      RelaxCellPressureAndLocate{pt.mass, pt.density, pt.specific_energy, pt.position_x,
+                                                 pt.position_y, pt.cell, sums, k.gamma, locate});
   }
 
  private:

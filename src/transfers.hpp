@@ -6,6 +6,7 @@
 // coloured); the time step (mpm_step.hpp) calls them without knowing which.
 #include <memory>
 
+#include "boundary_conditions.hpp"
 #include "case_config.hpp"
 #include "grid.hpp"
 #include "particles.hpp"
@@ -53,11 +54,18 @@ class TransferKernels {
   // same stencil, the move X' = X + dt V-bar (the walls, obstacles and sides come after). With
   // numerics/cell_averaged_strain, the volume-weighted mean divergence of the particle's cell
   // changes its density and energy, and that cell's mean P + Q of the force does the work. With
-  // numerics/volume_correction, the density is corrected towards the nodes' volume fraction; with
-  // numerics/pressure_relaxation, the particles of each cell (the cell of before the move) then go
-  // towards its common pressure (the step's state columns are spent: they hold the cell sums).
+  // numerics/volume_correction, the density is corrected towards the nodes' volume fraction.
   virtual void g2pd_particle_update(const ParticleState& particles, const ThermodynamicConstants& constants,
                                     real_t dt) = 0;
+  // Whether the case has numerics/pressure_relaxation: then relax_pressures_and_locate, after step
+  // 11's particle rules (apply_particle_rules), takes the place of locate_particles.
+  virtual bool relaxes_pressure() const = 0;
+  // The particles of each cell (the cell of before the move, which the cell map still holds) go
+  // towards its common pressure (the step's state columns are spent: they hold the cell sums);
+  // the same pass over the particles then gives each its new cell (`locate`), one pass instead of
+  // two. The particle rules do not change what the relaxation reads (mass, density, energy).
+  virtual void relax_pressures_and_locate(const ParticleState& particles, const ThermodynamicConstants& constants,
+                                          real_t dt, const ParticleLocator& locate) = 0;
   // m = P2G(M), mv = P2G(M V), and P2G(M rho), P2G(M P), P2G(M E) into `target`
   // (GridFields::ProjectionColumn, zeroed here): the particles' state on the grid, for output.
   // Writes no field of the step.
