@@ -62,29 +62,27 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
   if (!enabled_) return 0;
   const SplitRule rule{boundaries, initial_half_x_, initial_half_y_, initial_volume_};
   const index_t count = particles.count;
+  // The splitting particles in index order, counted and listed in one scan; where the list of the
+  // last splits is too short for them, it grows and the scan runs again (a count pass of its own
+  // every step cost a third more reads of the candidates' fields).
   index_t num_local = 0;
-  {
-    const ParticleState pt = particles;
-    Kokkos::parallel_reduce(
-        "split_count", Kokkos::RangePolicy<ExecutionSpace>(0, count),
-        KOKKOS_LAMBDA(const index_t p, index_t& n) { n += rule.splits(pt, p) ? 1 : 0; }, num_local);
-  }
-  const long long num_global = context.sum(static_cast<long long>(num_local));
-  if (num_global == 0) return 0;
-
-  // The splitting particles in index order.
-  if (static_cast<index_t>(parent_.extent(0)) < num_local) parent_ = IndexView("split_parent", num_local + num_local / 8);
-  {
+  for (;;) {
     const ParticleState pt = particles;
     const IndexView parent = parent_;
+    const index_t capacity = static_cast<index_t>(parent.extent(0));
     Kokkos::parallel_scan(
         "split_list", Kokkos::RangePolicy<ExecutionSpace>(0, count),
         KOKKOS_LAMBDA(const index_t p, index_t& offset, const bool final) {
           if (!rule.splits(pt, p)) return;
-          if (final) parent(offset) = p;
+          if (final && offset < capacity) parent(offset) = p;
           ++offset;
-        });
+        },
+        num_local);
+    if (num_local <= capacity) break;
+    parent_ = IndexView("split_parent", num_local + num_local / 8);
   }
+  const long long num_global = context.sum(static_cast<long long>(num_local));
+  if (num_global == 0) return 0;
 
   // The halves' ids: -1 - 2 n and -2 - 2 n, n = splits so far + the rank of their parent's id among
   // all parents.
