@@ -207,6 +207,10 @@ ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab&
       grid(slab.geometry),
       obstacles(obstacle_grid.obstacles),
       cell_near_obstacle(obstacle_grid.cell_near_obstacle),
+      near_x_min(obstacle_grid.near_x_min),
+      near_x_max(obstacle_grid.near_x_max),
+      near_y_min(obstacle_grid.near_y_min),
+      near_y_max(obstacle_grid.near_y_max),
       has_obstacles(!obstacle_grid.obstacles.empty()),
       surface_offset(real_t(1e-6) * slab.cell_size()) {
   const auto types = config.boundaries.side_types();

@@ -101,6 +101,7 @@ struct ParticleBoundaries {
   GridGeometry grid;
   DeviceObstacleSet obstacles;
   IndexView cell_near_obstacle;
+  real_t near_x_min = 1, near_x_max = 0, near_y_min = 1, near_y_max = 0;  // ObstacleGrid's box
   bool has_obstacles = false;
   real_t surface_offset = 0;  // how far outside the surface a particle is put back
 
@@ -108,6 +109,11 @@ struct ParticleBoundaries {
   ParticleBoundaries(const CaseConfig& config, const GridSlab& slab, const ObstacleGrid& obstacle_grid);
 
   ParticleLocator locator() const { return {domain, grid}; }
+  // Within the box of the cells an obstacle may reach into (ObstacleGrid): only there does a
+  // particle look up its cell's flag (two divisions and a load).
+  KOKKOS_INLINE_FUNCTION bool near_an_obstacle(real_t x, real_t y) const {
+    return has_obstacles && x >= near_x_min && x <= near_x_max && y >= near_y_min && y <= near_y_max;
+  }
   // Applies the rules above to moved particle p; where an obstacle takes its inward normal
   // velocity, returns true with the momentum it took (the particle's loss: the gas's impulse on the
   // obstacle) and the obstacle. `stopped` gets the kinetic energy the rules took from it.
@@ -135,6 +141,9 @@ KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::apply(index_t p, const ParticleS
                                                       real_t& impulse_y, index_t& obstacle, double& stopped) const {
   // Most particles meet no rule: they read their position only, and write nothing.
   const real_t x_moved = pt.position_x(p), y_moved = pt.position_y(p);
+  stopped = 0;
+  // Within the domain and away from every obstacle: no rule applies (the common case, tested first).
+  if (!domain.outside(x_moved, y_moved) && !near_an_obstacle(x_moved, y_moved)) return false;
   real_t x = x_moved, y = y_moved;
   // The kinetic energy a rule takes, 0.5 M (the velocity component it removes)^2, summed here
   // (times M at the end): each removes a component orthogonal to what is left.
@@ -164,7 +173,7 @@ KOKKOS_INLINE_FUNCTION bool ParticleBoundaries::apply(index_t p, const ParticleS
   // where it went (no obstacle, no clamp).
   bool hit = false;
   if (!domain.outside(x, y)) {
-    if (has_obstacles && cell_near_obstacle(grid.cell_of(x, y, /*include_ghosts=*/true))) {
+    if (near_an_obstacle(x, y) && cell_near_obstacle(grid.cell_of(x, y, /*include_ghosts=*/true))) {
       const SignedDistance sd = obstacles(x, y);
       if (sd.distance < 0) {
         x += (surface_offset - sd.distance) * sd.normal_x;

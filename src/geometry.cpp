@@ -301,6 +301,13 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
                                       std::min(node_distance[geo.node_index(ci, cj + 1)],
                                                node_distance[geo.node_index(ci + 1, cj + 1)]));
       near_host(ci + geo.cells_x() * cj) = closest < diagonal ? 1 : 0;
+      if (closest >= diagonal) continue;
+      const real_t x0 = geo.node_x(ci), x1 = geo.node_x(ci + 1), y0 = geo.node_y(cj), y1 = geo.node_y(cj + 1);
+      const bool first = grid.near_x_min > grid.near_x_max;
+      grid.near_x_min = first ? x0 : std::min(grid.near_x_min, x0);
+      grid.near_x_max = first ? x1 : std::max(grid.near_x_max, x1);
+      grid.near_y_min = first ? y0 : std::min(grid.near_y_min, y0);
+      grid.near_y_max = first ? y1 : std::max(grid.near_y_max, y1);
     }
   Kokkos::deep_copy(grid.cell_near_obstacle, near_host);
   return grid;
