@@ -17,6 +17,7 @@ IndexView select_indices(const char* label, index_t first, index_t last, const P
       label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
       KOKKOS_LAMBDA(const index_t p, index_t& n) { n += keep(p) ? 1 : 0; }, count);
   IndexView selected(std::string(label), static_cast<size_t>(count));
+  if (count == 0) return selected;
   Kokkos::parallel_scan(
       label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
       KOKKOS_LAMBDA(const index_t p, index_t& offset, const bool final) {
@@ -35,6 +36,30 @@ void fill_holes(const FieldView& field, const IndexView& holes, const IndexView&
   Kokkos::parallel_for(
       "particle_fill_holes", Kokkos::RangePolicy<ExecutionSpace>(0, count),
       KOKKOS_LAMBDA(const index_t k) { field(holes(k)) = field(fillers(k)); });
+}
+
+// The same, listed in `buffer` (kept by the caller from call to call, grown here where it is too
+// short) in one scan that also counts them: for selections made every step, a pass over the
+// particles fewer than counting first. Returns the first `count` entries of `buffer`.
+template <class Predicate>
+IndexView select_indices(const char* label, index_t first, index_t last, const Predicate& keep, IndexView& buffer) {
+  index_t count = 0;
+  for (;;) {
+    const IndexView selected = buffer;
+    const index_t capacity = static_cast<index_t>(selected.extent(0));
+    Kokkos::parallel_scan(
+        label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
+        KOKKOS_LAMBDA(const index_t p, index_t& offset, const bool final) {
+          if (keep(p)) {
+            if (final && offset < capacity) selected(offset) = p;
+            ++offset;
+          }
+        },
+        count);
+    if (count <= capacity) break;
+    buffer = IndexView(std::string(label), static_cast<size_t>(count + count / 4));
+  }
+  return Kokkos::subview(buffer, std::make_pair(index_t(0), count));
 }
 
 // The hole filling that packs the staying particles of [0, n) into [0, staying): the removed

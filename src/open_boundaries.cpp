@@ -301,7 +301,7 @@ void OpenBoundaries::exchange(ParticleState& pt, const SlabState& slab_state, re
     // would otherwise stay allocated beside its grown copy when the gas entering below makes the
     // particle Views grow.)
     const LeftTheDomain outside{pt.cell};
-    const IndexView leaving = select_indices("open_side_leaving", 0, pt.count, outside);
+    const IndexView leaving = select_indices("open_side_leaving", 0, pt.count, outside, leaving_);
     const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
     fluxes_.left += totals_of_particles(pt, leaving, 0, num_leaving);
     if (supply_ == ParticleSupply::recycle) {

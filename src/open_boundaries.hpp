@@ -154,6 +154,7 @@ class OpenBoundaries {
   Kokkos::View<double*, DeviceType> distance_before_, distance_after_, inward_speed_;
   Kokkos::View<long long*, DeviceType> strip_volume_;  // per cell along a far-field side
   BoundaryFluxes fluxes_;
+  IndexView leaving_;  // the list of the particles that left (select_indices), kept from step to step
 };
 
 // The conservation totals of `count` particles: those listed in `list`, or, with an empty

@@ -45,6 +45,8 @@ class ParticleMerging {
  private:
   bool enabled_ = false;
   real_t initial_volume_ = 0;
+  // The candidates' list (select_indices), kept from call to call: scratch, not state.
+  mutable IndexView candidates_;
 };
 
 }  // namespace mpmflow
