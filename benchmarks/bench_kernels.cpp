@@ -25,10 +25,10 @@
 //   g2pd_particle_update        reads x y cell rho e q, writes x y rho e q   = 84 (GIMP: stretches also
 //                               written, +16); grid 5 read (V-bar, remapped velocity, volume
 //                               fraction) = 40/ppc
-//   pressure_relaxation (the default) its sums read cell m rho e (28), its update reads cell m rho e
-//                               x y and writes rho e cell (the cell map, 64) = 92; per cell 5
-//                               columns zeroed, 5 RMW, the cell pass's 5 read and 3 written, and
-//                               the update's 3 read = 208/ppc
+//   pressure_relaxation (the default) its sums read cell m rho e (28), its update reads cell rho e
+//                               x y and writes rho e cell (the cell map, 56) = 84; per cell 5
+//                               columns zeroed, 5 RMW, the cell pass's 5 read and 4 written, and
+//                               the update's 4 read = 224/ppc
 //   splitting                   the candidates' pass reads m rho and the two stretches = 32
 //   merging (after a first split) the candidates' pass reads id m rho      = 24
 //   particle_move (boundaries)  the rules read x y (and write them where a rule moves the particle)
@@ -192,7 +192,7 @@ const std::map<Phase, Traffic>& traffic_model() {
       {Phase::p2g_momentum_remap, {44, 32, true}},
       {Phase::g2pd_particle_update, {84, 40, true}},
       {Phase::particle_move, {16, 0, false}},
-      {Phase::pressure_relaxation, {92, 208, false}},
+      {Phase::pressure_relaxation, {84, 224, false}},
       {Phase::time_step, {0, 32, false}},
       {Phase::reorder, {288, 0, false}},
       {Phase::splitting, {32, 0, false}},

@@ -123,8 +123,14 @@ KOKKOS_INLINE_FUNCTION real_t pressure_relaxation_fraction(real_t gamma, real_t 
 // compressed or expanded isentropically, V (p / P)^(1 / gamma), to first order in the pressure
 // difference, V (1 + (p - P) / (gamma P)), which the relaxation acts on (differences of a few per
 // cent). To that order the shares sum to the cell's volume exactly: sum V (p - P) = 0.
+// Its ratio to the volume, 1 + (p - P) / (gamma P), with 1 / (gamma P) given: the relaxation
+// computes that once per cell, not once per particle.
+KOKKOS_INLINE_FUNCTION real_t relaxed_volume_ratio(real_t pressure, real_t mean_pressure,
+                                                   real_t inverse_gamma_mean_pressure) {
+  return 1 + (pressure - mean_pressure) * inverse_gamma_mean_pressure;
+}
 KOKKOS_INLINE_FUNCTION real_t relaxed_volume_share(real_t gamma, real_t volume, real_t pressure, real_t mean_pressure) {
-  return volume * (1 + (pressure - mean_pressure) / (gamma * mean_pressure));
+  return volume * relaxed_volume_ratio(pressure, mean_pressure, 1 / (gamma * mean_pressure));
 }
 
 // A particle's density corrected towards the space its volume shares: with phi the volume

@@ -111,10 +111,16 @@ struct RelaxationSums {
 };
 
 // What the particles of a cell share in the pressure relaxation, computed once per cell from its
-// sums and written over them (RelaxationSumColumn's first three columns of the row): the
+// sums and written over them (RelaxationSumColumn's first four columns of the row): the
 // fraction of the way the particles go (pressure_relaxation_fraction), the common pressure
-// P = (gamma - 1) sum(M e) / sum(V), and the internal energy per volume sum(M e) / sum(V).
-enum RelaxationColumn : int { relaxation_fraction = 0, relaxation_pressure, relaxation_energy_per_volume };
+// P = (gamma - 1) sum(M e) / sum(V), 1 / (gamma P) for the particles' shares
+// (relaxed_volume_ratio), and the internal energy per volume sum(M e) / sum(V).
+enum RelaxationColumn : int {
+  relaxation_fraction = 0,
+  relaxation_pressure,
+  relaxation_inverse_gamma_pressure,
+  relaxation_energy_per_volume
+};
 
 struct CellRelaxation {
   NodeFieldsView sums;
@@ -126,8 +132,10 @@ struct CellRelaxation {
         gamma, dt, cell_size, volume, mass, energy,
         relative_spread(volume, pressure_volume, sums(c, relaxation_pressure_squared_volume)),
         relative_spread(volume, mass, sums(c, relaxation_density_squared_volume)));
+    const real_t pressure = fraction > 0 ? pressure_volume / volume : real_t(0);
     sums(c, relaxation_fraction) = fraction;
-    sums(c, relaxation_pressure) = fraction > 0 ? pressure_volume / volume : real_t(0);
+    sums(c, relaxation_pressure) = pressure;
+    sums(c, relaxation_inverse_gamma_pressure) = fraction > 0 ? 1 / (gamma * pressure) : real_t(0);
     sums(c, relaxation_energy_per_volume) = fraction > 0 ? energy / volume : real_t(0);
   }
 };
@@ -141,7 +149,7 @@ struct CellRelaxation {
 // and the particles' volume changes, sampled at scattered points, keep making new ones.
 // The particle's new cell comes with it (relax_pressures_and_locate), once its old one is read.
 struct RelaxCellPressureAndLocate {
-  RealView mass, density, specific_energy, position_x, position_y;
+  RealView density, specific_energy, position_x, position_y;
   IndexView cell;
   NodeFieldsView cells;  // CellRelaxation's columns
   real_t gamma;
@@ -151,15 +159,18 @@ struct RelaxCellPressureAndLocate {
     cell(p) = locate(position_x(p), position_y(p));
     const real_t fraction = cells(c, relaxation_fraction);
     if (!(fraction > 0)) return;
-    const real_t m = mass(p), rho = density(p), e = specific_energy(p), volume = m / rho, energy = m * e;
-    const real_t equilibrium_volume =
-        relaxed_volume_share(gamma, volume, perfect_gas_pressure(gamma, rho, e), cells(c, relaxation_pressure));
-    const real_t equilibrium_energy = cells(c, relaxation_energy_per_volume) * equilibrium_volume;
-    const real_t new_volume = volume + fraction * (equilibrium_volume - volume);
-    const real_t new_energy = energy + fraction * (equilibrium_energy - energy);
-    if (!(new_volume > 0 && new_energy > 0)) return;
-    density(p) = m / new_volume;
-    specific_energy(p) = new_energy / m;
+    // Per unit of the particle's volume V = M / rho and mass, two divisions: the volume goes from V
+    // to V_eq = V r (r = relaxed_volume_ratio) by the fraction, V (1 + fraction (r - 1)), and the
+    // specific energy to that of the share, (E / V)_cell V_eq / M = (E / V)_cell r / rho.
+    const real_t rho = density(p), e = specific_energy(p);
+    const real_t ratio = relaxed_volume_ratio(perfect_gas_pressure(gamma, rho, e), cells(c, relaxation_pressure),
+                                              cells(c, relaxation_inverse_gamma_pressure));
+    const real_t new_volume_ratio = 1 + fraction * (ratio - 1);
+    const real_t equilibrium_specific_energy = cells(c, relaxation_energy_per_volume) * ratio / rho;
+    const real_t new_specific_energy = e + fraction * (equilibrium_specific_energy - e);
+    if (!(new_volume_ratio > 0 && new_specific_energy > 0)) return;
+    density(p) = rho / new_volume_ratio;
+    specific_energy(p) = new_specific_energy;
   }
 };
 
@@ -546,8 +557,8 @@ class Transfers final : public TransferKernels {
     Kokkos::parallel_for("cell_relaxation", Kokkos::RangePolicy<ExecutionSpace>(0, geometry_.num_cells()),
                          CellRelaxation{sums, k.gamma, dt, k.cell_size});
     for_each_particle("cell_pressure_relaxation", pt.count,
-                      RelaxCellPressureAndLocate{pt.mass, pt.density, pt.specific_energy, pt.position_x,
-                                                 pt.position_y, pt.cell, sums, k.gamma, locate});
+                      RelaxCellPressureAndLocate{pt.density, pt.specific_energy, pt.position_x, pt.position_y,
+                                                 pt.cell, sums, k.gamma, locate});
   }
 
  private:
