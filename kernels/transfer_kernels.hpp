@@ -137,8 +137,32 @@ struct WritesOnlyItsParticle : std::false_type {};
 template <class Sink>
 struct WritesOnlyItsParticle<Sink, std::void_t<typename Sink::writes_only_its_particle>>
     : Sink::writes_only_its_particle {};
+// A body that can also run in two phases over a batch the other way round: prepare(p, lanes, l)
+// computes what particle p adds to the nodes (the P2G functors: its state's sums, divisions
+// among them), add_prepared(stencil, lanes, l) adds it. The divisions of one particle then no longer
+// wait behind the previous particle's stores, nor its stores behind them. The same arithmetic in
+// the same order: the same bits. Marked by a member prepares_then_scatters = true.
+template <class Body, class = void>
+struct PreparesThenScatters : std::false_type {};
+template <class Body>
+struct PreparesThenScatters<Body, std::void_t<decltype(Body::prepares_then_scatters)>>
+    : std::integral_constant<bool, Body::prepares_then_scatters> {};
+
+// How a batch's bodies run: particle by particle, gathering then finishing, preparing then
+// scattering, or (both) gathering, then finishing and preparing, then scattering.
+enum class BatchBodies : int { one_by_one, gather_then_finish, prepare_then_scatter, gather_finish_scatter };
+template <class Body>
+constexpr BatchBodies batch_bodies() {
+  return GathersThenFinishes<Body>::value && PreparesThenScatters<Body>::value ? BatchBodies::gather_finish_scatter
+         : GathersThenFinishes<Body>::value                                     ? BatchBodies::gather_then_finish
+         : PreparesThenScatters<Body>::value                                    ? BatchBodies::prepare_then_scatter
+                                                                                 : BatchBodies::one_by_one;
+}
+template <BatchBodies B>
+using BatchBodiesTag = std::integral_constant<int, static_cast<int>(B)>;
+
 // Its per-batch storage for L lanes (nothing for other bodies).
-template <class Body, int L, bool = GathersThenFinishes<Body>::value>
+template <class Body, int L, bool = GathersThenFinishes<Body>::value || PreparesThenScatters<Body>::value>
 struct BatchLanes {
   struct type {};
 };
@@ -156,20 +180,43 @@ struct BatchLanes<Body, L, true> {
 constexpr int stencil_batch_size = 32;
 
 // A batch's bodies, particle by particle (nvcc allows no `if constexpr` around what a device lambda
-// captures, hence overloads).
-template <int L, class Body, class Batch>
-KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch, index_t first, int count,
-                                            index_t row_stride, std::false_type /*gathers_then_finishes*/) {
-  for (int l = 0; l < count; ++l) body(first + l, batch.stencil(l, row_stride));
+// captures, hence overloads). `particle(l)` is lane l's particle.
+template <int L, class Body, class Batch, class Particles>
+KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch, const Particles& particle,
+                                            int count, index_t row_stride,
+                                            BatchBodiesTag<BatchBodies::one_by_one>) {
+  for (int l = 0; l < count; ++l) body(particle(l), batch.stencil(l, row_stride));
 }
 // ... or the node reads particle by particle, then the particle updates.
-template <int L, class Body, class Batch>
-KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch, index_t first, int count,
-                                            index_t row_stride, std::true_type /*gathers_then_finishes*/) {
+template <int L, class Body, class Batch, class Particles>
+KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch, const Particles& particle,
+                                            int count, index_t row_stride,
+                                            BatchBodiesTag<BatchBodies::gather_then_finish>) {
   typename BatchLanes<Body, L>::type lanes;
   for (int l = 0; l < count; ++l) body.gather(batch.stencil(l, row_stride), lanes, l);
   MPMFLOW_VECTORISE
-  for (int l = 0; l < count; ++l) body.finish(first + l, lanes, l);
+  for (int l = 0; l < count; ++l) body.finish(particle(l), lanes, l);
+}
+// ... or what each particle adds, then the additions.
+template <int L, class Body, class Batch, class Particles>
+KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch, const Particles& particle,
+                                            int count, index_t row_stride,
+                                            BatchBodiesTag<BatchBodies::prepare_then_scatter>) {
+  typename BatchLanes<Body, L>::type lanes;
+  for (int l = 0; l < count; ++l) body.prepare(particle(l), lanes, l);
+  for (int l = 0; l < count; ++l) body.add_prepared(batch.stencil(l, row_stride), lanes, l);
+}
+// ... or the node reads, then the particle updates (each preparing what its particle adds), then
+// the additions (G2P then P2G).
+template <int L, class Body, class Batch, class Particles>
+KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch, const Particles& particle,
+                                            int count, index_t row_stride,
+                                            BatchBodiesTag<BatchBodies::gather_finish_scatter>) {
+  typename BatchLanes<Body, L>::type lanes;
+  for (int l = 0; l < count; ++l) body.gather(batch.stencil(l, row_stride), lanes, l);
+  MPMFLOW_VECTORISE
+  for (int l = 0; l < count; ++l) body.finish(particle(l), lanes, l);
+  for (int l = 0; l < count; ++l) body.add_prepared(batch.stencil(l, row_stride), lanes, l);
 }
 
 template <class Shape, class Body>
@@ -186,7 +233,7 @@ void for_each_particle_batch(const char* label, const Shape& shape, const Partic
         const int count = num_particles - first < L ? static_cast<int>(num_particles - first) : L;
         StencilBatch<Shape::stencil_width, L> batch;
         shape.fill_batch(ConsecutiveParticles{first}, count, cell.data(), x.data(), y.data(), batch);
-        run_bodies<L>(body, batch, first, count, row_stride, std::integral_constant<bool, GathersThenFinishes<Body>::value>());
+        run_bodies<L>(body, batch, ConsecutiveParticles{first}, count, row_stride, BatchBodiesTag<batch_bodies<Body>()>());
       });
 }
 
@@ -267,7 +314,8 @@ void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& 
                 const int count = row_end - s < L ? static_cast<int>(row_end - s) : L;
                 StencilBatch<Shape::stencil_width, L> batch;
                 shape.fill_batch(ListedParticles{order.data() + s}, count, cell.data(), x.data(), y.data(), batch);
-                for (int l = 0; l < count; ++l) body(order(s + l), batch.stencil(l, row_stride));
+                run_bodies<L>(body, batch, ListedParticles{order.data() + s}, count, row_stride,
+                              BatchBodiesTag<batch_bodies<Body>()>());
               }
             } else {
               for (index_t s = row_begin; s < row_end; ++s) {
@@ -538,11 +586,32 @@ struct P2GAndP2GDBody {
   VectorFunctor vector_functor;
   template <class StencilType>
   KOKKOS_FORCEINLINE_FUNCTION void operator()(const index_t p, const StencilType& s) const {
-    constexpr int K = StencilType::width;
     real_t value[NV];
     real_t vector[ND][2];
     value_functor(p, value);
     vector_functor(p, vector);
+    add(s, value, vector);
+  }
+  // In two phases over a batch (PreparesThenScatters).
+  static constexpr bool prepares_then_scatters = true;
+  template <int L>
+  struct Lanes {
+    real_t value[L][NV];
+    real_t vector[L][ND][2];
+  };
+  template <int L>
+  KOKKOS_FORCEINLINE_FUNCTION void prepare(const index_t p, Lanes<L>& lanes, int l) const {
+    value_functor(p, lanes.value[l]);
+    vector_functor(p, lanes.vector[l]);
+  }
+  template <class StencilType, int L>
+  KOKKOS_FORCEINLINE_FUNCTION void add_prepared(const StencilType& s, const Lanes<L>& lanes, int l) const {
+    add(s, lanes.value[l], lanes.vector[l]);
+  }
+  template <class StencilType>
+  KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&value)[NV],
+                                       const real_t (&vector)[ND][2]) const {
+    constexpr int K = StencilType::width;
     auto access = scatter.access();
     for (int b = 0; b < K; ++b) {
       real_t row[NV], row_x[ND], row_y[ND];
@@ -591,6 +660,27 @@ struct G2PThenP2GBody {
     real_t out[M];
     update(p, value, out);
     accumulate(s, scatter.access(), first_component, out);
+  }
+  // In three phases over a batch (GathersThenFinishes and PreparesThenScatters), where the update
+  // writes nothing but its own particle: the interpolations, the updates, the additions.
+  static constexpr bool gathers_then_finishes = WritesOnlyItsParticle<ParticleUpdate>::value;
+  static constexpr bool prepares_then_scatters = WritesOnlyItsParticle<ParticleUpdate>::value;
+  template <int L>
+  struct Lanes {
+    real_t value[L][N];
+    real_t out[L][M];
+  };
+  template <class StencilType, int L>
+  KOKKOS_FORCEINLINE_FUNCTION void gather(const StencilType& s, Lanes<L>& lanes, int l) const {
+    interpolate(s, node_functor, lanes.value[l]);
+  }
+  template <int L>
+  KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, Lanes<L>& lanes, int l) const {
+    update(p, lanes.value[l], lanes.out[l]);
+  }
+  template <class StencilType, int L>
+  KOKKOS_FORCEINLINE_FUNCTION void add_prepared(const StencilType& s, const Lanes<L>& lanes, int l) const {
+    accumulate(s, scatter.access(), first_component, lanes.out[l]);
   }
 };
 

@@ -235,6 +235,7 @@ struct Accelerate {
 // Steps 6-8 for one particle, for the fused kernel: the sink above, then the particle's new
 // momentum M V' for the remap P2G.
 struct AccelerateThenCarryMomentum {
+  using writes_only_its_particle = std::true_type;  // (WritesOnlyItsParticle)
   static constexpr int num_components = 2;
   Accelerate accelerate;
   RealView mass;
