@@ -91,9 +91,13 @@ KOKKOS_INLINE_FUNCTION bool surely_valid_gas_state(real_t gamma, real_t density,
 
 // The fraction of a volume or pressure mismatch below the grid's resolution that the gas evens
 // out in a step of dt: dt c / h, the share of a cell that sound crosses (at most all of it).
-KOKKOS_INLINE_FUNCTION real_t acoustic_fraction(real_t dt, real_t sound_speed, real_t cell_size) {
-  const real_t fraction = dt * sound_speed / cell_size;
+// With dt / h given (once per step, not a division per particle).
+KOKKOS_INLINE_FUNCTION real_t acoustic_fraction(real_t dt_over_cell_size, real_t sound_speed) {
+  const real_t fraction = dt_over_cell_size * sound_speed;
   return fraction < 1 ? fraction : real_t(1);
+}
+KOKKOS_INLINE_FUNCTION real_t acoustic_fraction(real_t dt, real_t sound_speed, real_t cell_size) {
+  return acoustic_fraction(dt / cell_size, sound_speed);
 }
 
 // The relative spread (volume-weighted standard deviation over mean) of a quantity of a cell from

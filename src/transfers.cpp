@@ -277,6 +277,7 @@ struct UpdateThermodynamics {
   RealView density, specific_energy, viscosity, stretch_x, stretch_y;
   real_t dt, gamma, cell_size, c0, c1;
   bool energy_consistent, volume_correction;
+  real_t dt_over_cell_size;
   KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[5], const real_t (&gradient)[5][2]) const {
     advance(p, value);
     const real_t dvx_dx = gradient[remapped_velocity][0], dvy_dy = gradient[remapped_velocity + 1][1];
@@ -284,16 +285,17 @@ struct UpdateThermodynamics {
     stretch_x(p) *= 1 + dt * dvx_dx;
     stretch_y(p) *= 1 + dt * dvy_dy;
     const real_t rho = density(p), e = specific_energy(p), pressure = perfect_gas_pressure(gamma, rho, e);
-    const real_t q = artificial_viscosity(rho, perfect_gas_sound_speed(gamma, e), cell_size, div_v, c0, c1);
+    // (Once: the viscosity and the volume correction both take it.)
+    const real_t sound_speed = perfect_gas_sound_speed(gamma, e);
+    const real_t q = artificial_viscosity(rho, sound_speed, cell_size, div_v, c0, c1);
     // Energy-consistent: the viscous pressure that made this step's forces, so that the heat is
     // exactly the kinetic energy the viscosity removed; the paper's update takes the new one.
     const real_t q_of_work = energy_consistent ? viscosity(p) : q;
     specific_energy(p) = advanced_specific_energy(e, dt, pressure, q_of_work, rho, div_v);
     const real_t advanced = advanced_density(rho, dt, div_v);
-    density(p) = volume_correction
-                     ? volume_corrected_density(advanced, value[volume_fraction_at_particle],
-                                                acoustic_fraction(dt, perfect_gas_sound_speed(gamma, e), cell_size))
-                     : advanced;
+    density(p) = volume_correction ? volume_corrected_density(advanced, value[volume_fraction_at_particle],
+                                                              acoustic_fraction(dt_over_cell_size, sound_speed))
+                                   : advanced;
     viscosity(p) = q;
   }
 };
@@ -523,7 +525,7 @@ class Transfers final : public TransferKernels {
                    UpdateThermodynamics{advance(pt, dt), pt.density, pt.specific_energy, pt.artificial_viscosity,
                                         pt.domain_stretch_x, pt.domain_stretch_y, dt, k.gamma, k.cell_size,
                                         k.viscosity_quadratic, k.viscosity_linear, k.energy_consistent,
-                                        k.volume_correction});
+                                        k.volume_correction, dt / k.cell_size});
     }
   }
 
