@@ -372,35 +372,59 @@ GimpShape make_shape<GimpShape>(const CaseConfig& config, const GridGeometry& ge
 
 // ---- How P2G accumulates ----------------------------------------------------------------------
 
+// The state's momentum columns, where steps 6-8 remap the momentum: a View of their own (LayoutLeft:
+// two whole columns, contiguous), so that that P2G combines two columns, not seven.
+NodeFieldsView momentum_columns(const NodeFieldsView& state) {
+  return Kokkos::subview(state, Kokkos::ALL, std::make_pair(int(GridFields::momentum_x), int(GridFields::momentum_x) + 2));
+}
+
 // Through ScatterViews, duplicated (a copy of the node fields per thread, summed at the end) or
-// atomic: all particles at once.
+// atomic: all particles at once. Duplicated, the state's ScatterView holds the state itself as its
+// first copy (fields.state becomes that copy; the View the grid allocated is let go first): the
+// other copies are summed into it, one copy fewer held and read. The remap into the momentum
+// columns has a ScatterView of its own over those columns.
 template <class Duplication>
 class ScatterAccumulation {
  public:
   static constexpr bool duplicated = std::is_same<Duplication, Kokkos::Experimental::ScatterDuplicated>::value;
   using Access = NodeScatterView<Duplication>;
 
-  ScatterAccumulation(const GridFields& fields, const NodeFieldsView& cell_sums)
-      : state_(fields.state), cells_(cell_sums) {}
+  ScatterAccumulation(GridFields& fields, const NodeFieldsView& cell_sums)
+      : state_(adopt_state(fields)), momentum_(momentum_columns(fields.state)), cells_(cell_sums) {}
   void prepare(const ParticleState&, const GridGeometry&) {}
   // Batched stencils on CPUs (for_each_particle_stencil).
   ParticleBatches traversal(const ParticleState& particles) const { return ParticleBatches{particles.count}; }
-  // Steps 3 and 8 (the remap into the momentum columns).
+  // Step 3 (and the pressure relaxation's cell sums).
   Access& state() { return state_; }
+  // Step 8, the remap into the momentum columns (its column 0: momentum_x).
+  Access& momentum() { return momentum_; }
   Access& cells() { return cells_; }
   // An accumulator into another View (the output projection), made for the occasion.
   Access into(const NodeFieldsView& target) const { return Access(target); }
   P2GStrategy strategy() const { return duplicated ? P2GStrategy::duplicated : P2GStrategy::atomic; }
-  // A duplicated ScatterView holds one copy of its target per thread (the target itself aside).
+  // A duplicated ScatterView holds one copy of its target per thread (the state's first is the
+  // state itself).
   size_t extra_bytes() const {
     if (!duplicated) return 0;
     const size_t copies = static_cast<size_t>(ExecutionSpace().concurrency());
-    return copies * sizeof(real_t) * (state_.subview().span() + cells_.subview().span());
+    return sizeof(real_t) * ((copies - 1) * state_.subview().span() +
+                             copies * (momentum_.subview().span() + cells_.subview().span()));
   }
 
  private:
+  static Access adopt_state(GridFields& fields) {
+    if (!duplicated) return Access(fields.state);
+    const std::string label = fields.state.label();
+    const size_t nodes = fields.state.extent(0), columns = fields.state.extent(1);
+    fields.state = NodeFieldsView();  // released before the copies are made: the peak
+    Access access(label, nodes, columns);
+    fields.state = access.subview();
+    return access;
+  }
+
   // Kept alive across steps: creating a duplicated ScatterView allocates a copy per thread.
   Access state_;
+  Access momentum_;
   Access cells_;  // the per-cell sums of cell-averaged strain
 };
 
@@ -411,21 +435,22 @@ class ColouredAccumulation {
  public:
   using Access = DirectNodeAccess;
 
-  ColouredAccumulation(const GridFields& fields, const NodeFieldsView& cell_sums)
-      : state_{fields.state}, cell_sums_{cell_sums} {}
+  ColouredAccumulation(GridFields& fields, const NodeFieldsView& cell_sums)
+      : state_{fields.state}, momentum_{momentum_columns(fields.state)}, cell_sums_{cell_sums} {}
   void prepare(const ParticleState& particles, const GridGeometry& grid) {
     order_.build(particles.cell, particles.count, grid.num_cells());
     cells_ = {order_.cell_offset(), order_.particle(), grid.cells_x(), grid.cells_y()};
   }
   const ColouredCells& traversal(const ParticleState&) const { return cells_; }
   Access& state() { return state_; }
+  Access& momentum() { return momentum_; }
   Access& cells() { return cell_sums_; }
   Access into(const NodeFieldsView& target) const { return Access{target}; }
   P2GStrategy strategy() const { return P2GStrategy::sorted; }
   size_t extra_bytes() const { return order_.bytes(); }
 
  private:
-  Access state_, cell_sums_;
+  Access state_, momentum_, cell_sums_;
   CellOrder order_;
   ColouredCells cells_;
 };
@@ -435,14 +460,16 @@ class ColouredAccumulation {
 template <class Accumulation, class Shape>
 class Transfers final : public TransferKernels {
  public:
-  Transfers(const CaseConfig& config, const GridGeometry& geometry, const GridFields& fields)
+  // (The accumulation may give `fields` its state View: ScatterAccumulation.)
+  Transfers(const CaseConfig& config, const GridGeometry& geometry, GridFields& fields)
       : geometry_(geometry),
-        fields_(fields),
         cell_averaged_strain_(config.numerics.cell_averaged_strain),
         pressure_relaxation_(config.numerics.pressure_relaxation),
         gamma_(config.physics.gamma),
         cell_sums_("cell_sums", cell_averaged_strain_ ? geometry.num_cells() : 0, num_cell_sum_columns),
         accumulation_(fields, cell_sums_),
+        fields_(fields),
+        momentum_target_(momentum_columns(fields.state)),
         shape_(make_shape<Shape>(config, geometry)),
         in_doubt_count_("p2g_particles_in_doubt", 1),
         in_doubt_(in_doubt_count_) {}
@@ -480,12 +507,12 @@ class Transfers final : public TransferKernels {
   }
 
   void g2p_p2g_velocity_momentum(const ParticleState& pt, real_t dt) override {
-    p2g_begin(accumulation_.state(), fields_.state);
+    p2g_begin(accumulation_.momentum(), momentum_target_);
     g2p_then_p2g("g2p_p2g_velocity_momentum", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
                  NodeColumns<2>{fields_.per_unit_mass, GridFields::acceleration_x},
                  AccelerateThenCarryMomentum{Accelerate{pt.velocity_x, pt.velocity_y, dt}, pt.mass},
-                 accumulation_.state(), GridFields::momentum_x);
-    p2g_end(accumulation_.state(), fields_.state);
+                 accumulation_.momentum(), 0);
+    p2g_end(accumulation_.momentum(), momentum_target_);
   }
 
   void g2p_velocity_acceleration(const ParticleState& pt, real_t dt) override {
@@ -495,10 +522,10 @@ class Transfers final : public TransferKernels {
   }
 
   void p2g_momentum_remap(const ParticleState& pt) override {
-    p2g_begin(accumulation_.state(), fields_.state);
+    p2g_begin(accumulation_.momentum(), momentum_target_);
     p2g("p2g_momentum_remap", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
-        accumulation_.state(), GridFields::momentum_x, Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
-    p2g_end(accumulation_.state(), fields_.state);
+        accumulation_.momentum(), 0, Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
+    p2g_end(accumulation_.momentum(), momentum_target_);
   }
 
   void g2pd_particle_update(const ParticleState& pt, const ThermodynamicConstants& k, real_t dt) override {
@@ -568,12 +595,13 @@ class Transfers final : public TransferKernels {
   static AdvancePosition advance(const ParticleState& pt, real_t dt) { return {pt.position_x, pt.position_y, dt}; }
 
   GridGeometry geometry_;
-  GridFields fields_;
   bool cell_averaged_strain_;
   bool pressure_relaxation_;
   real_t gamma_;
   NodeFieldsView cell_sums_;  // (cell, CellSumColumn) with cell-averaged strain
   Accumulation accumulation_;
+  GridFields fields_;                // (after accumulation_, which may set its state)
+  NodeFieldsView momentum_target_;  // momentum_columns(fields_.state)
   Shape shape_;
   IndexView in_doubt_count_;  // of the last p2g_mass_momentum_force
   DoubtCounter in_doubt_;
@@ -581,7 +609,7 @@ class Transfers final : public TransferKernels {
 
 template <class Accumulation>
 std::unique_ptr<TransferKernels> make_for_shape(const CaseConfig& config, const GridGeometry& geometry,
-                                                const GridFields& fields) {
+                                                GridFields& fields) {
   switch (config.numerics.shape_function) {
     case ShapeFunction::gimp: return std::make_unique<Transfers<Accumulation, GimpShape>>(config, geometry, fields);
     case ShapeFunction::bspline:
@@ -594,7 +622,7 @@ std::unique_ptr<TransferKernels> make_for_shape(const CaseConfig& config, const 
 }  // namespace
 
 std::unique_ptr<TransferKernels> make_transfer_kernels(const CaseConfig& config, const GridGeometry& geometry,
-                                                       const GridFields& fields) {
+                                                       GridFields& fields) {
   using Kokkos::Experimental::ScatterDuplicated;
   using Kokkos::Experimental::ScatterNonDuplicated;
   switch (config.numerics.p2g) {

@@ -78,8 +78,9 @@ class TransferKernels {
 };
 
 // The transfers the case asks for (numerics/shape_function and numerics/p2g), on `fields` of a
-// slab of `geometry`.
+// slab of `geometry`. A duplicated P2G gives `fields` a new state View (the first of its copies,
+// zeroed): make the transfers before anything keeps a handle of the state.
 std::unique_ptr<TransferKernels> make_transfer_kernels(const CaseConfig& config, const GridGeometry& geometry,
-                                                       const GridFields& fields);
+                                                       GridFields& fields);
 
 }  // namespace mpmflow

@@ -71,7 +71,7 @@ TEST(TimeStep, TheP2GCountsTheParticlesInDoubtOfItsOwnPass) {
     config.numerics.p2g = strategy;
     const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
     const ParticleState pt = create_initial_particles(config, slab);
-    const GridFields fields(slab.geometry);
+    GridFields fields(slab.geometry);
     const auto transfers = make_transfer_kernels(config, slab.geometry, fields);
     const index_t victim = 17;
     const real_t density = value_at(pt.density, victim);
