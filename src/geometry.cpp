@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -302,7 +303,10 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
                                                node_distance[geo.node_index(ci + 1, cj + 1)]));
       near_host(ci + geo.cells_x() * cj) = closest < diagonal ? 1 : 0;
       if (closest >= diagonal) continue;
-      const real_t x0 = geo.node_x(ci), x1 = geo.node_x(ci + 1), y0 = geo.node_y(cj), y1 = geo.node_y(cj + 1);
+      // (A flagged cell at the edge of the local grid: the look-up clamps a point beyond it to it.)
+      const real_t beyond = std::numeric_limits<real_t>::max();
+      const real_t x0 = ci == 0 ? -beyond : geo.node_x(ci), x1 = ci + 1 == geo.cells_x() ? beyond : geo.node_x(ci + 1);
+      const real_t y0 = cj == 0 ? -beyond : geo.node_y(cj), y1 = cj + 1 == geo.cells_y() ? beyond : geo.node_y(cj + 1);
       const bool first = grid.near_x_min > grid.near_x_max;
       grid.near_x_min = first ? x0 : std::min(grid.near_x_min, x0);
       grid.near_x_max = first ? x1 : std::max(grid.near_x_max, x1);

@@ -123,8 +123,9 @@ struct ObstacleGrid {
   IndexView obstacle_nodes;
   NodeFieldsView obstacle_normals;  // (k, {n_x, n_y}) of obstacle_nodes(k)
   IndexView cell_near_obstacle;     // 1 where a corner of the cell lies within a cell diagonal of an obstacle
-  // The box around the flagged cells (empty, min > max, where none is): a particle outside it
-  // needs no look-up of its cell's flag.
+  // The box around the flagged cells (empty, min > max, where none is; unbounded on a side where
+  // a flagged cell lies at the edge of the local grid): a particle outside it needs no look-up of
+  // its cell's flag.
   real_t near_x_min = 1, near_x_max = 0, near_y_min = 1, near_y_max = 0;
   // Of every local node: the volume its hat function N_i covers within the domain and outside the
   // obstacles, \int N_i over the gas's space (a cell's area inside, half of it on a side, a quarter

@@ -161,6 +161,41 @@ TEST(SignedDistance, NodeGasVolumeIsTheHatsShareOfTheGasSpace) {
   EXPECT_NEAR(at(2.0, 1.3), -outside, 0.01 * area);
 }
 
+// The box the particle rules test before a cell's flag (ObstacleGrid::near_x_min ..) holds every
+// flagged cell, and is far smaller than the domain; a grid without obstacles has an empty box.
+TEST(SignedDistance, TheNearBoxHoldsEveryCellAnObstacleMayReachInto) {
+  const CaseConfig config = parse_case(
+      tunnel_case(R"({"left": {"type": "inflow"}, "right": {"type": "outflow"}, "bottom": {"type": "slip_wall"},
+                     "top": {"type": "slip_wall"}})",
+                  kFreeStream + R"(, "obstacles": [{"type": "circle", "centre": [2, 1], "radius": 0.25}])"),
+      "near_box.json");
+  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+  const ObstacleGrid grid = make_obstacle_grid(config.obstacles, slab, config.boundaries);
+  const ParticleBoundaries rules(config, slab, grid);
+  auto near = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grid.cell_near_obstacle);
+  const GridGeometry& g = slab.geometry;
+  index_t flagged = 0;
+  for (index_t cj = 0; cj < g.cells_y(); ++cj)
+    for (index_t ci = 0; ci < g.cells_x(); ++ci) {
+      if (!near(ci + g.cells_x() * cj)) continue;
+      ++flagged;
+      for (const double u : {0.0, 0.5, 1.0})
+        for (const double w : {0.0, 0.5, 1.0})
+          EXPECT_TRUE(rules.near_an_obstacle(g.node_x(ci) + u * g.spacing_x, g.node_y(cj) + w * g.spacing_y))
+              << "cell " << ci << ", " << cj;
+    }
+  EXPECT_GT(flagged, 0);
+  // The circle and a cell diagonal around it, to within a cell: [1.6, 2.4] x [0.6, 1.4].
+  EXPECT_LT(grid.near_x_max - grid.near_x_min, 0.8 + 2 * g.spacing_x + 1e-12);
+  EXPECT_LT(grid.near_y_max - grid.near_y_min, 0.8 + 2 * g.spacing_y + 1e-12);
+  EXPECT_FALSE(rules.near_an_obstacle(0.5, 0.5));
+  CaseConfig empty = config;
+  empty.obstacles.clear();
+  const ObstacleGrid none = make_obstacle_grid(empty.obstacles, slab, empty.boundaries);
+  EXPECT_GT(none.near_x_min, none.near_x_max);
+  EXPECT_FALSE(ParticleBoundaries(empty, slab, none).near_an_obstacle(2, 1));
+}
+
 class GeometryErrors : public ::testing::Test {
  protected:
   void SetUp() override {
