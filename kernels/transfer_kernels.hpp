@@ -492,6 +492,28 @@ void p2c(const char* label, const IndexView& particle_cell, const Traversal& tra
   for_each_particle(label, traversal,
                     P2CBody<ScatterViewType, ParticleFunctor>{scatter, particle_cell, first_component, functor});
 }
+// ... with the particles grouped by cell (ColouredCells): each cell sums its particles in order in
+// registers and writes its sums once. The same sums, bitwise, as adding each particle into the
+// zeroed cell in the same order (0 + a = a).
+template <class ParticleFunctor>
+void p2c(const char* label, const IndexView&, const ColouredCells& cells, DirectNodeAccess& scatter,
+         int first_component, const ParticleFunctor& functor) {
+  constexpr int N = ParticleFunctor::num_components;
+  const IndexView offset = cells.cell_offset, order = cells.particle;
+  const NodeFieldsView target = scatter.target;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, cells.cells_x * cells.cells_y), KOKKOS_LAMBDA(const index_t c) {
+        const index_t begin = offset(c), end = offset(c + 1);
+        if (begin == end) return;
+        real_t sum[N], value[N];
+        functor(order(begin), sum);
+        for (index_t s = begin + 1; s < end; ++s) {
+          functor(order(s), value);
+          for (int k = 0; k < N; ++k) sum[k] += value[k];
+        }
+        for (int k = 0; k < N; ++k) target(c, first_component + k) += sum[k];
+      });
+}
 
 // The kernels below walk a stencil row by row (b along y, a along x) and use its tensor-product
 // form: phi(a, b) = wx[a] wy[b], so the y factor multiplies a whole row once.
