@@ -188,14 +188,19 @@ KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch
   for (int l = 0; l < count; ++l) body(particle(l), batch.stencil(l, row_stride));
 }
 // ... or the node reads particle by particle, then the particle updates.
+template <int L, class Body, class Batch, class Particles, class Lanes>
+KOKKOS_FORCEINLINE_FUNCTION void gather_then_finish(const Body& body, const Batch& batch, const Particles& particle,
+                                                    int count, index_t row_stride, Lanes& lanes) {
+  for (int l = 0; l < count; ++l) body.gather(batch.stencil(l, row_stride), lanes, l);
+  MPMFLOW_VECTORISE
+  for (int l = 0; l < count; ++l) body.finish(particle(l), lanes, l);
+}
 template <int L, class Body, class Batch, class Particles>
 KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch, const Particles& particle,
                                             int count, index_t row_stride,
                                             BatchBodiesTag<BatchBodies::gather_then_finish>) {
   typename BatchLanes<Body, L>::type lanes;
-  for (int l = 0; l < count; ++l) body.gather(batch.stencil(l, row_stride), lanes, l);
-  MPMFLOW_VECTORISE
-  for (int l = 0; l < count; ++l) body.finish(particle(l), lanes, l);
+  gather_then_finish<L>(body, batch, particle, count, row_stride, lanes);
 }
 // ... or what each particle adds, then the additions.
 template <int L, class Body, class Batch, class Particles>
@@ -213,9 +218,7 @@ KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch
                                             int count, index_t row_stride,
                                             BatchBodiesTag<BatchBodies::gather_finish_scatter>) {
   typename BatchLanes<Body, L>::type lanes;
-  for (int l = 0; l < count; ++l) body.gather(batch.stencil(l, row_stride), lanes, l);
-  MPMFLOW_VECTORISE
-  for (int l = 0; l < count; ++l) body.finish(particle(l), lanes, l);
+  gather_then_finish<L>(body, batch, particle, count, row_stride, lanes);
   for (int l = 0; l < count; ++l) body.add_prepared(batch.stencil(l, row_stride), lanes, l);
 }
 

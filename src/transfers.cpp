@@ -277,7 +277,7 @@ struct UpdateThermodynamics {
   RealView density, specific_energy, viscosity, stretch_x, stretch_y;
   real_t dt, gamma, cell_size, c0, c1;
   bool energy_consistent, volume_correction;
-  real_t dt_over_cell_size;
+  real_t dt_over_cell_size;  // dt / cell_size, once a step (acoustic_fraction)
   KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[5], const real_t (&gradient)[5][2]) const {
     advance(p, value);
     const real_t dvx_dx = gradient[remapped_velocity][0], dvy_dy = gradient[remapped_velocity + 1][1];

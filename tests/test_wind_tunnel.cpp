@@ -122,12 +122,17 @@ const std::string kFreeStream = R"(, "free_stream": {"density": 1.4, "pressure":
 // against: a cell's area inside the domain, half on a wall or an inflow side, a quarter in a
 // corner, none beyond the domain; 0 (unknown) within a cell of a far-field side; within a cell
 // diagonal of an obstacle the hat's part outside it, negative (only a shortfall counts there).
+// A tunnel with inflow, outflow, a slip wall at the bottom and `top` (a type), and a circle of
+// radius 0.25 at (2, 1).
+CaseConfig circle_in_tunnel(const std::string& top, const std::string& name) {
+  return parse_case(tunnel_case(R"({"left": {"type": "inflow"}, "right": {"type": "outflow"},
+                                    "bottom": {"type": "slip_wall"}, "top": {"type": ")" + top + R"("}})",
+                                kFreeStream + R"(, "obstacles": [{"type": "circle", "centre": [2, 1], "radius": 0.25}])"),
+                    name);
+}
+
 TEST(SignedDistance, NodeGasVolumeIsTheHatsShareOfTheGasSpace) {
-  const CaseConfig config = parse_case(
-      tunnel_case(R"({"left": {"type": "inflow"}, "right": {"type": "outflow"}, "bottom": {"type": "slip_wall"},
-                     "top": {"type": "far_field"}})",
-                  kFreeStream + R"(, "obstacles": [{"type": "circle", "centre": [2, 1], "radius": 0.25}])"),
-      "gas_volume.json");
+  const CaseConfig config = circle_in_tunnel("far_field", "gas_volume.json");
   const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
   const ObstacleGrid grid = make_obstacle_grid(config.obstacles, slab, config.boundaries);
   auto volume = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grid.node_gas_volume);
@@ -164,11 +169,7 @@ TEST(SignedDistance, NodeGasVolumeIsTheHatsShareOfTheGasSpace) {
 // The box the particle rules test before a cell's flag (ObstacleGrid::near_x_min ..) holds every
 // flagged cell, and is far smaller than the domain; a grid without obstacles has an empty box.
 TEST(SignedDistance, TheNearBoxHoldsEveryCellAnObstacleMayReachInto) {
-  const CaseConfig config = parse_case(
-      tunnel_case(R"({"left": {"type": "inflow"}, "right": {"type": "outflow"}, "bottom": {"type": "slip_wall"},
-                     "top": {"type": "slip_wall"}})",
-                  kFreeStream + R"(, "obstacles": [{"type": "circle", "centre": [2, 1], "radius": 0.25}])"),
-      "near_box.json");
+  const CaseConfig config = circle_in_tunnel("slip_wall", "near_box.json");
   const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
   const ObstacleGrid grid = make_obstacle_grid(config.obstacles, slab, config.boundaries);
   const ParticleBoundaries rules(config, slab, grid);
