@@ -101,10 +101,10 @@ KOKKOS_INLINE_FUNCTION real_t acoustic_fraction(real_t dt, real_t sound_speed, r
 }
 
 // The relative spread (volume-weighted standard deviation over mean) of a quantity of a cell from
-// its sums of V q and V q^2.
+// its sums of V q and V q^2: variance / mean^2 = V sum(V q^2) / sum(V q)^2 - 1 (one division).
 KOKKOS_INLINE_FUNCTION real_t relative_spread(real_t volume, real_t sum, real_t sum_of_squares) {
-  const real_t mean = sum / volume, variance = sum_of_squares / volume - mean * mean;
-  return variance > 0 && mean > 0 ? square_root(variance) / mean : real_t(0);
+  const real_t relative_variance = volume * sum_of_squares / (sum * sum) - 1;
+  return sum > 0 && relative_variance > 0 ? square_root(relative_variance) : real_t(0);
 }
 
 // The fraction of the way to one pressure that the particles of a cell go in a step of dt: the
@@ -113,13 +113,14 @@ KOKKOS_INLINE_FUNCTION real_t relative_spread(real_t volume, real_t sum, real_t 
 // 1 - s / 0.25, s the larger relative spread of the cell's pressures and densities (noise is a few
 // per cent; a shock or a contact within the cell, or a particle unlike its neighbours near a
 // vacuum, is left alone). 0 where the cell holds no gas.
-KOKKOS_INLINE_FUNCTION real_t pressure_relaxation_fraction(real_t gamma, real_t dt, real_t cell_size, real_t volume,
+// (dt / h given: once a step.)
+KOKKOS_INLINE_FUNCTION real_t pressure_relaxation_fraction(real_t gamma, real_t dt_over_cell_size, real_t volume,
                                                            real_t mass, real_t internal_energy, real_t pressure_spread,
                                                            real_t density_spread) {
   if (!(volume > 0 && mass > 0 && internal_energy > 0)) return 0;
   const real_t spread = pressure_spread > density_spread ? pressure_spread : density_spread;
-  const real_t fraction =
-      acoustic_fraction(dt, perfect_gas_sound_speed(gamma, internal_energy / mass), cell_size) * (1 - spread / real_t(0.25));
+  const real_t fraction = acoustic_fraction(dt_over_cell_size, perfect_gas_sound_speed(gamma, internal_energy / mass)) *
+                          (1 - spread / real_t(0.25));
   return fraction > 0 ? fraction : real_t(0);
 }
 

@@ -124,19 +124,20 @@ enum RelaxationColumn : int {
 
 struct CellRelaxation {
   NodeFieldsView sums;
-  real_t gamma, dt, cell_size;
+  real_t gamma, dt_over_cell_size;
   KOKKOS_INLINE_FUNCTION void operator()(index_t c) const {
     const real_t volume = sums(c, relaxation_volume), energy = sums(c, relaxation_internal_energy);
     const real_t mass = sums(c, relaxation_mass), pressure_volume = (gamma - 1) * energy;
     const real_t fraction = pressure_relaxation_fraction(
-        gamma, dt, cell_size, volume, mass, energy,
+        gamma, dt_over_cell_size, volume, mass, energy,
         relative_spread(volume, pressure_volume, sums(c, relaxation_pressure_squared_volume)),
         relative_spread(volume, mass, sums(c, relaxation_density_squared_volume)));
-    const real_t pressure = fraction > 0 ? pressure_volume / volume : real_t(0);
+    const bool relaxes = fraction > 0;
+    const real_t inverse_volume = relaxes ? 1 / volume : real_t(0);
     sums(c, relaxation_fraction) = fraction;
-    sums(c, relaxation_pressure) = pressure;
-    sums(c, relaxation_inverse_gamma_pressure) = fraction > 0 ? 1 / (gamma * pressure) : real_t(0);
-    sums(c, relaxation_energy_per_volume) = fraction > 0 ? energy / volume : real_t(0);
+    sums(c, relaxation_pressure) = pressure_volume * inverse_volume;
+    sums(c, relaxation_inverse_gamma_pressure) = relaxes ? volume / (gamma * pressure_volume) : real_t(0);
+    sums(c, relaxation_energy_per_volume) = energy * inverse_volume;
   }
 };
 
@@ -585,7 +586,7 @@ class Transfers final : public TransferKernels {
         RelaxationSums{pt.mass, pt.density, pt.specific_energy, k.gamma});
     p2g_end(accumulation_.state(), sums);
     Kokkos::parallel_for("cell_relaxation", Kokkos::RangePolicy<ExecutionSpace>(0, geometry_.num_cells()),
-                         CellRelaxation{sums, k.gamma, dt, k.cell_size});
+                         CellRelaxation{sums, k.gamma, dt / k.cell_size});
     for_each_particle("cell_pressure_relaxation", pt.count,
                       RelaxCellPressureAndLocate{pt.density, pt.specific_energy, pt.position_x, pt.position_y,
                                                  pt.cell, sums, k.gamma, locate});
