@@ -17,7 +17,7 @@ namespace mpmflow {
 // order `permutation` gives (through a temporary, since the permutation may move any entry).
 template <class ViewType>
 void permute_particle_field(const ViewType& view, const IndexView& permutation, index_t n) {
-  ViewType copy(std::string("permute_copy"), n);
+  ViewType copy(Kokkos::view_alloc(Kokkos::WithoutInitializing, std::string("permute_copy")), n);
   Kokkos::parallel_for(
       "permute", Kokkos::RangePolicy<ExecutionSpace>(0, n),
       KOKKOS_LAMBDA(const index_t k) { copy(k) = view(permutation(k)); });
