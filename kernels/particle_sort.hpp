@@ -40,9 +40,13 @@ class CellOrder {
   static constexpr bool counting_sort = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
 
   void build(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
+    // Grown with an eighth to spare, as the particle Views are (a run whose particle count grows a
+    // little every step, through inflow and splitting, reallocated it every step), and left
+    // unfilled: the build writes every entry it uses.
     if (static_cast<index_t>(particle_.extent(0)) < num_particles) {
-      particle_ = IndexView("cell_order_particle", num_particles);
-      if (!counting_sort) keys_ = KeyView("cell_order_keys", num_particles);
+      const index_t capacity = num_particles + num_particles / 8;
+      particle_ = IndexView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_particle"), capacity);
+      if (!counting_sort) keys_ = KeyView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_keys"), capacity);
     }
     if (static_cast<index_t>(cell_offset_.extent(0)) != num_cells + 1) {
       cell_offset_ = IndexView("cell_order_offset", num_cells + 1);
