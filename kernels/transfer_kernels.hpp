@@ -150,16 +150,20 @@ struct PreparesThenScatters<Body, std::void_t<decltype(Body::prepares_then_scatt
 
 // How a batch's bodies run: particle by particle, gathering then finishing, preparing then
 // scattering, or (both) gathering, then finishing and preparing, then scattering.
+// (A trait, not a constexpr function: nvcc warns of a host function called in a device lambda.)
 enum class BatchBodies : int { one_by_one, gather_then_finish, prepare_then_scatter, gather_finish_scatter };
 template <class Body>
-constexpr BatchBodies batch_bodies() {
-  return GathersThenFinishes<Body>::value && PreparesThenScatters<Body>::value ? BatchBodies::gather_finish_scatter
-         : GathersThenFinishes<Body>::value                                     ? BatchBodies::gather_then_finish
-         : PreparesThenScatters<Body>::value                                    ? BatchBodies::prepare_then_scatter
-                                                                                 : BatchBodies::one_by_one;
-}
+struct BatchBodiesOf {
+  static constexpr BatchBodies value =
+      GathersThenFinishes<Body>::value && PreparesThenScatters<Body>::value ? BatchBodies::gather_finish_scatter
+      : GathersThenFinishes<Body>::value                                     ? BatchBodies::gather_then_finish
+      : PreparesThenScatters<Body>::value                                    ? BatchBodies::prepare_then_scatter
+                                                                              : BatchBodies::one_by_one;
+};
 template <BatchBodies B>
 using BatchBodiesTag = std::integral_constant<int, static_cast<int>(B)>;
+template <class Body>
+using BatchBodiesTagOf = BatchBodiesTag<BatchBodiesOf<Body>::value>;
 
 // Its per-batch storage for L lanes (nothing for other bodies).
 template <class Body, int L, bool = GathersThenFinishes<Body>::value || PreparesThenScatters<Body>::value>
@@ -236,7 +240,7 @@ void for_each_particle_batch(const char* label, const Shape& shape, const Partic
         const int count = num_particles - first < L ? static_cast<int>(num_particles - first) : L;
         StencilBatch<Shape::stencil_width, L> batch;
         shape.fill_batch(ConsecutiveParticles{first}, count, cell.data(), x.data(), y.data(), batch);
-        run_bodies<L>(body, batch, ConsecutiveParticles{first}, count, row_stride, BatchBodiesTag<batch_bodies<Body>()>());
+        run_bodies<L>(body, batch, ConsecutiveParticles{first}, count, row_stride, BatchBodiesTagOf<Body>());
       });
 }
 
@@ -318,7 +322,7 @@ void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& 
                 StencilBatch<Shape::stencil_width, L> batch;
                 shape.fill_batch(ListedParticles{order.data() + s}, count, cell.data(), x.data(), y.data(), batch);
                 run_bodies<L>(body, batch, ListedParticles{order.data() + s}, count, row_stride,
-                              BatchBodiesTag<batch_bodies<Body>()>());
+                              BatchBodiesTagOf<Body>());
               }
             } else {
               for (index_t s = row_begin; s < row_end; ++s) {
