@@ -90,14 +90,11 @@ KOKKOS_INLINE_FUNCTION bool surely_valid_gas_state(real_t gamma, real_t density,
 // ---- Sub-cell consistency (numerics/pressure_relaxation and numerics/volume_correction) ---------
 
 // The fraction of a volume or pressure mismatch below the grid's resolution that the gas evens
-// out in a step of dt: dt c / h, the share of a cell that sound crosses (at most all of it).
-// With dt / h given (once per step, not a division per particle).
+// out in a step of dt: dt c / h, the share of a cell that sound crosses (at most all of it). With
+// dt / h given (once per step, not a division per particle).
 KOKKOS_INLINE_FUNCTION real_t acoustic_fraction(real_t dt_over_cell_size, real_t sound_speed) {
   const real_t fraction = dt_over_cell_size * sound_speed;
   return fraction < 1 ? fraction : real_t(1);
-}
-KOKKOS_INLINE_FUNCTION real_t acoustic_fraction(real_t dt, real_t sound_speed, real_t cell_size) {
-  return acoustic_fraction(dt / cell_size, sound_speed);
 }
 
 // The relative spread (volume-weighted standard deviation over mean) of a quantity of a cell from
@@ -112,8 +109,7 @@ KOKKOS_INLINE_FUNCTION real_t relative_spread(real_t volume, real_t sum, real_t 
 // pressure difference across a cell evens out in about the time sound takes to cross it), times
 // 1 - s / 0.25, s the larger relative spread of the cell's pressures and densities (noise is a few
 // per cent; a shock or a contact within the cell, or a particle unlike its neighbours near a
-// vacuum, is left alone). 0 where the cell holds no gas.
-// (dt / h given: once a step.)
+// vacuum, is left alone). 0 where the cell holds no gas. (dt / h given: once a step.)
 KOKKOS_INLINE_FUNCTION real_t pressure_relaxation_fraction(real_t gamma, real_t dt_over_cell_size, real_t volume,
                                                            real_t mass, real_t internal_energy, real_t pressure_spread,
                                                            real_t density_spread) {
@@ -124,18 +120,14 @@ KOKKOS_INLINE_FUNCTION real_t pressure_relaxation_fraction(real_t gamma, real_t 
   return fraction > 0 ? fraction : real_t(0);
 }
 
-// A particle's volume at its cell's mean pressure P (= sum V p / sum V) in the pressure relaxation:
-// compressed or expanded isentropically, V (p / P)^(1 / gamma), to first order in the pressure
-// difference, V (1 + (p - P) / (gamma P)), which the relaxation acts on (differences of a few per
-// cent). To that order the shares sum to the cell's volume exactly: sum V (p - P) = 0.
-// Its ratio to the volume, 1 + (p - P) / (gamma P), with 1 / (gamma P) given: the relaxation
-// computes that once per cell, not once per particle.
+// A particle's volume at its cell's mean pressure P (= sum V p / sum V) in the pressure relaxation,
+// over its volume V: compressed or expanded isentropically, (p / P)^(1 / gamma), to first order in
+// the pressure difference, 1 + (p - P) / (gamma P), which the relaxation acts on (differences of a
+// few per cent). To that order the shares V r sum to the cell's volume exactly: sum V (p - P) = 0.
+// With 1 / (gamma P) given: the relaxation computes it once per cell, not once per particle.
 KOKKOS_INLINE_FUNCTION real_t relaxed_volume_ratio(real_t pressure, real_t mean_pressure,
                                                    real_t inverse_gamma_mean_pressure) {
   return 1 + (pressure - mean_pressure) * inverse_gamma_mean_pressure;
-}
-KOKKOS_INLINE_FUNCTION real_t relaxed_volume_share(real_t gamma, real_t volume, real_t pressure, real_t mean_pressure) {
-  return volume * relaxed_volume_ratio(pressure, mean_pressure, 1 / (gamma * mean_pressure));
 }
 
 // A particle's density corrected towards the space its volume shares: with phi the volume

@@ -70,10 +70,7 @@ index_t ParticleMerging::merge(ParticleState& particles, const ParticleBoundarie
   const real_t initial_volume = initial_volume_;
   const IndexView candidates = select_indices(
       "merge_candidates", 0, pt.count,
-      // (Only split particles, with negative ids, may merge: the others need no division.)
-      KOKKOS_LAMBDA(const index_t p) {
-        return pt.id(p) < 0 && may_merge(pt.id(p), pt.mass(p) / pt.density(p), initial_volume);
-      },
+      KOKKOS_LAMBDA(const index_t p) { return may_merge(pt.id(p), pt.mass(p), pt.density(p), initial_volume); },
       candidates_);
   const index_t num_candidates = static_cast<index_t>(candidates.extent(0));
   if (num_candidates < 2) return 0;

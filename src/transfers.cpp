@@ -143,7 +143,7 @@ struct CellRelaxation {
 
 // The pressure relaxation within a cell: the particles of a cell go towards its common pressure P,
 // keeping the cell's volume and internal energy (so mass, momentum and energy are conserved
-// exactly), each particle's volume at P its isentropic share (relaxed_volume_share) and its internal
+// exactly), each particle's volume at P its isentropic share (relaxed_volume_ratio) and its internal
 // energy that volume's share of the cell's, by the cell's fraction of the way, the same for all
 // its particles (so that the sums hold). Pressure differences within a cell are below what the
 // grid resolves: the gas evens them out acoustically, but MPM's forces, made on the nodes, cannot,
@@ -470,7 +470,6 @@ class Transfers final : public TransferKernels {
         cell_sums_("cell_sums", cell_averaged_strain_ ? geometry.num_cells() : 0, num_cell_sum_columns),
         accumulation_(fields, cell_sums_),
         fields_(fields),
-        momentum_target_(momentum_columns(fields.state)),
         shape_(make_shape<Shape>(config, geometry)),
         in_doubt_count_("p2g_particles_in_doubt", 1),
         in_doubt_(in_doubt_count_) {}
@@ -508,12 +507,13 @@ class Transfers final : public TransferKernels {
   }
 
   void g2p_p2g_velocity_momentum(const ParticleState& pt, real_t dt) override {
-    p2g_begin(accumulation_.momentum(), momentum_target_);
+    const NodeFieldsView momentum = momentum_columns(fields_.state);
+    p2g_begin(accumulation_.momentum(), momentum);
     g2p_then_p2g("g2p_p2g_velocity_momentum", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
                  NodeColumns<2>{fields_.per_unit_mass, GridFields::acceleration_x},
                  AccelerateThenCarryMomentum{Accelerate{pt.velocity_x, pt.velocity_y, dt}, pt.mass},
                  accumulation_.momentum(), 0);
-    p2g_end(accumulation_.momentum(), momentum_target_);
+    p2g_end(accumulation_.momentum(), momentum);
   }
 
   void g2p_velocity_acceleration(const ParticleState& pt, real_t dt) override {
@@ -523,10 +523,11 @@ class Transfers final : public TransferKernels {
   }
 
   void p2g_momentum_remap(const ParticleState& pt) override {
-    p2g_begin(accumulation_.momentum(), momentum_target_);
+    const NodeFieldsView momentum = momentum_columns(fields_.state);
+    p2g_begin(accumulation_.momentum(), momentum);
     p2g("p2g_momentum_remap", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
         accumulation_.momentum(), 0, Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
-    p2g_end(accumulation_.momentum(), momentum_target_);
+    p2g_end(accumulation_.momentum(), momentum);
   }
 
   void g2pd_particle_update(const ParticleState& pt, const ThermodynamicConstants& k, real_t dt) override {
@@ -601,8 +602,7 @@ class Transfers final : public TransferKernels {
   real_t gamma_;
   NodeFieldsView cell_sums_;  // (cell, CellSumColumn) with cell-averaged strain
   Accumulation accumulation_;
-  GridFields fields_;                // (after accumulation_, which may set its state)
-  NodeFieldsView momentum_target_;  // momentum_columns(fields_.state)
+  GridFields fields_;  // (after accumulation_, which may set its state)
   Shape shape_;
   IndexView in_doubt_count_;  // of the last p2g_mass_momentum_force
   DoubtCounter in_doubt_;
