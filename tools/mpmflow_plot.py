@@ -55,6 +55,12 @@ python3-numpy (scripts/setup.sh installs them).
       the snapshots' effective case) against its exact solution: the density L1 error with particle-free
       gaps counted as vacuum, and the widest gap between neighbouring particles, in cells.
 
+  mpmflow_plot.py godunov-error OUTPUT_DIR [--x A B] [--cfl C]
+      The reference for riemann-error: a first-order Godunov scheme with exact Riemann fluxes
+      (Toro, ch. 6), on the run's cells, from its Riemann problem to its time (transmissive ends:
+      the cases keep what their walls reflect outside the interval measured), and its density L1
+      error measured as riemann-error measures the run's.
+
   mpmflow_plot.py energy-balance OUTPUT_DIR [--max-residual F]
       From diagnostics.csv: the total energy's change against what entered and left through the
       open sides, the work of the boundary conditions and the kinetic energy particles lost to
@@ -743,6 +749,105 @@ def riemann_error(args):
     return 1 if any(failed) else 0
 
 
+def exact_riemann_at_interfaces(gamma, left, right):
+    """The state (density, velocity, pressure) on x / t = 0 of the exact solution of the Riemann
+    problems with states `left` and `right` (tuples of arrays), all at once (Toro, ch. 4: the star
+    pressure by Newton's method on the pressure function, then the wave pattern sampled)."""
+    g = gamma
+    (rl, ul, pl), (rr, ur, pr) = left, right
+    cl, cr = np.sqrt(g * pl / rl), np.sqrt(g * pr / rr)
+    if np.any(2 * (cl + cr) / (g - 1) <= ur - ul):
+        sys.exit("mpmflow_plot: error: godunov-error: a Riemann problem between cells creates a vacuum")
+
+    def pressure_function(p, rk, pk, ck):  # f_K and its derivative
+        a, b = 2 / ((g + 1) * rk), (g - 1) / (g + 1) * pk
+        shock = p > pk
+        ratio = np.maximum(p, 1e-300) / pk
+        f = np.where(shock, (p - pk) * np.sqrt(a / (p + b)), 2 * ck / (g - 1) * (ratio ** ((g - 1) / (2 * g)) - 1))
+        df = np.where(shock, np.sqrt(a / (b + p)) * (1 - (p - pk) / (2 * (b + p))),
+                      ratio ** (-(g + 1) / (2 * g)) / (rk * ck))
+        return f, df
+
+    p = np.maximum(0.5 * (pl + pr) - 0.125 * (ur - ul) * (rl + rr) * (cl + cr), 1e-6 * np.minimum(pl, pr))
+    for _ in range(100):
+        fl, dfl = pressure_function(p, rl, pl, cl)
+        fr, dfr = pressure_function(p, rr, pr, cr)
+        step = (fl + fr + ur - ul) / (dfl + dfr)
+        p_new = np.maximum(p - step, 1e-3 * p)
+        converged = np.all(np.abs(p_new - p) <= 1e-12 * (p_new + p))
+        p = p_new
+        if converged:
+            break
+    fl, _ = pressure_function(p, rl, pl, cl)
+    fr, _ = pressure_function(p, rr, pr, cr)
+    u = 0.5 * (ul + ur) + 0.5 * (fr - fl)
+    out = [np.empty_like(p) for _ in range(3)]
+    for side, (rk, uk, pk, ck) in ((-1, (rl, ul, pl, cl)), (1, (rr, ur, pr, cr))):
+        here = (u >= 0) if side == -1 else (u < 0)  # x / t = 0 lies on this side of the contact
+        ratio = p / pk
+        # A shock: its speed; the side's state before it, the star state behind.
+        speed = uk + side * ck * np.sqrt((g + 1) / (2 * g) * ratio + (g - 1) / (2 * g))
+        shocked_density = rk * (ratio + (g - 1) / (g + 1)) / ((g - 1) / (g + 1) * ratio + 1)
+        before_shock = (speed >= 0) if side == -1 else (speed <= 0)
+        # A rarefaction: its head and tail speeds; inside it, the fan's state at x / t = 0.
+        head, tail = uk + side * ck, u + side * ck * ratio ** ((g - 1) / (2 * g))
+        before_fan = (head >= 0) if side == -1 else (head <= 0)
+        in_fan = ~before_fan & ((tail > 0) if side == -1 else (tail < 0))
+        fan_c = np.maximum(2 / (g + 1) * (ck - side * (g - 1) / 2 * uk), 0)
+        fan = (rk * (fan_c / ck) ** (2 / (g - 1)), -side * fan_c, pk * (fan_c / ck) ** (2 * g / (g - 1)))
+        star_fan = rk * ratio ** (1 / g)
+        shock = p > pk
+        density = np.where(shock, np.where(before_shock, rk, shocked_density),
+                           np.where(before_fan, rk, np.where(in_fan, fan[0], star_fan)))
+        velocity = np.where(shock, np.where(before_shock, uk, u), np.where(before_fan, uk, np.where(in_fan, fan[1], u)))
+        pressure = np.where(shock, np.where(before_shock, pk, p), np.where(before_fan, pk, np.where(in_fan, fan[2], p)))
+        for k, value in enumerate((density, velocity, pressure)):
+            out[k][here] = value[here]
+    return out
+
+
+def godunov_error(args):
+    """A first-order Godunov scheme with exact Riemann fluxes on the run's cells (transmissive ends,
+    CFL args.cfl), from the run's Riemann problem to its time: the reference the run's density L1
+    is compared with, measured the same way (riemann-error)."""
+    path = snapshot_files(args.output_dir)[-1]
+    s = Snapshot(path)
+    case = s.effective_case
+    g = s.gamma
+    right = case["initial_state"]["background"]
+    left = case["initial_state"]["regions"][0]
+    x_lo, x_hi = case["domain"]["x"]
+    cells = case["domain"]["cells_x"]
+    h = (x_hi - x_lo) / cells
+    centres = x_lo + (np.arange(cells) + 0.5) * h
+    is_left = centres < left["x"][1]
+    density = np.where(is_left, left["density"], right["density"]).astype(float)
+    velocity = np.where(is_left, left["velocity"][0], right["velocity"][0]).astype(float)
+    pressure = np.where(is_left, left["pressure"], right["pressure"]).astype(float)
+    conserved = np.array([density, density * velocity, pressure / (g - 1) + 0.5 * density * velocity**2])
+    t, steps = 0.0, 0
+    while t < s.time * (1 - 1e-12):
+        density, momentum, energy = conserved
+        velocity = momentum / density
+        pressure = (g - 1) * (energy - 0.5 * density * velocity**2)
+        dt = min(args.cfl * h / np.max(np.abs(velocity) + np.sqrt(g * pressure / density)), s.time - t)
+        # Transmissive ends: a copy of the end cells beyond them.
+        padded = [np.concatenate([[q[0]], q, [q[-1]]]) for q in (density, velocity, pressure)]
+        r, u, p = exact_riemann_at_interfaces(g, tuple(q[:-1] for q in padded), tuple(q[1:] for q in padded))
+        flux = np.array([r * u, r * u * u + p, u * (p / (g - 1) + 0.5 * r * u * u + p)])
+        conserved = conserved - dt / h * (flux[:, 1:] - flux[:, :-1])
+        t += dt
+        steps += 1
+    exact = exact_riemann_of_case(case, path, s.time, args.mpmflow)
+    samples = exact[:, 0]
+    numerical = conserved[0][np.clip(((samples - x_lo) / h).astype(int), 0, cells - 1)]
+    within = (samples >= args.x[0]) & (samples <= args.x[1]) if args.x else np.ones_like(samples, dtype=bool)
+    l1 = float(np.sum(np.abs(numerical - exact[:, 1])[within]) * (samples[1] - samples[0]))
+    print(f"{s.case} t = {s.time:g}, {cells} cells: first-order Godunov (exact Riemann fluxes, CFL {args.cfl:g}, "
+          f"{steps} steps) density L1 {l1:.5f}")
+    return 0
+
+
 def energy_budget(row, first):
     """The energy balance of one diagnostics.csv row against the first, term by term, relative to
     the initial total energy: change = in - out + boundary work - kinetic energy stopped, and what
@@ -885,6 +990,11 @@ def main():
     riemann.add_argument("--max-l1", type=float)
     riemann.add_argument("--max-gap", type=float, help="widest gap between neighbouring particles, in cells")
     riemann.add_argument("--x", type=float, nargs=2, metavar=("A", "B"), help="measure on [A, B] only")
+    godunov = sub.add_parser("godunov-error", help="riemann-error's reference: first-order Godunov on the run's cells")
+    godunov.add_argument("output_dir")
+    godunov.add_argument("--mpmflow", help="the mpmflow binary (default: next to the build, or on PATH)")
+    godunov.add_argument("--x", type=float, nargs=2, metavar=("A", "B"), help="measure on [A, B] only")
+    godunov.add_argument("--cfl", type=float, default=0.9)
     energy = sub.add_parser("energy-balance", help="the energy budget term by term, from diagnostics.csv")
     energy.add_argument("output_dir")
     energy.add_argument("--max-residual", type=float)
@@ -914,6 +1024,8 @@ def main():
         sys.exit(mass_balance(args))
     elif args.command == "riemann-error":
         sys.exit(riemann_error(args))
+    elif args.command == "godunov-error":
+        sys.exit(godunov_error(args))
     elif args.command == "energy-balance":
         sys.exit(energy_balance(args))
     else:
