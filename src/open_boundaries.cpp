@@ -253,7 +253,6 @@ OpenBoundaries::OpenBoundaries(const CaseConfig& config, const GridSlab& slab)
   }
   recycle_.free_stream = free_stream_;
   recycle_.specific_energy = specific_energy_;
-  recycle_.particle_mass = particle_mass_;
   recycle_.seed = seed_;
 
   // Entering: the lattice outside each inflow and far-field side.
