@@ -331,9 +331,14 @@ void push_through_outflow(const SlabState& slab, OpenBoundaries& open_sides, Par
   open_sides.exchange(pt, slab, dt, step);
 }
 
-TEST(Recycling, ReentersWhereItLeftAlongTheSideWithTheFreeStreamStateIndependentOfOrder) {
-  const CaseConfig config = tunnel_config(R"(, "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"},
+// The tunnel with an inflow on the left, an outflow on the right and the paper's recycling.
+CaseConfig recycling_tunnel_config() {
+  return tunnel_config(R"(, "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"},
       "particle_supply": "recycle"})");
+}
+
+TEST(Recycling, ReentersWhereItLeftAlongTheSideWithTheFreeStreamStateIndependentOfOrder) {
+  const CaseConfig config = recycling_tunnel_config();
   const GridSlab slab = make_grid_slab(config.domain, 0, 40);
   const SlabState slab_state(config, slab);
   ParticleState forward = create_initial_particles(config, slab);
@@ -378,8 +383,7 @@ TEST(Recycling, ReentersWhereItLeftAlongTheSideWithTheFreeStreamStateIndependent
 }
 
 TEST(Recycling, GasThatWentBeyondMoreThanTheStripIsDeepIsWrappedIntoIt) {
-  const CaseConfig config = tunnel_config(R"(, "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"},
-      "particle_supply": "recycle"})");
+  const CaseConfig config = recycling_tunnel_config();
   const GridSlab slab = make_grid_slab(config.domain, 0, 40);
   const SlabState slab_state(config, slab);
   ParticleState pt = create_initial_particles(config, slab);
