@@ -973,7 +973,8 @@ def main():
     noise.add_argument("--density", type=float, help="the expected mean density")
     noise.add_argument("--pressure", type=float, help="the expected mean pressure")
     noise.add_argument("--max-mean-error", type=float, help="largest relative error of the means")
-    wedge = sub.add_parser("oblique-shock", help="a wedge's shock angle and post-shock state against the exact oblique shock")
+    wedge = sub.add_parser("oblique-shock",
+                           help="a wedge's shock angle and post-shock state against the exact oblique shock")
     wedge.add_argument("output_dir")
     wedge.add_argument("--apex", type=float, nargs=2, required=True, metavar=("X", "Y"))
     wedge.add_argument("--wedge-angle", type=float, required=True, help="degrees, the upper surface's")
