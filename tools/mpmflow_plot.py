@@ -372,16 +372,21 @@ def find_mpmflow(explicit):
     sys.exit("mpmflow_plot: error: no mpmflow binary found under build/*/bin; pass --mpmflow BIN")
 
 
+def riemann_states(case, case_path):
+    """The left and right states of a 1D case's Riemann problem: its first region (the left state,
+    with its x range) and its background (the right state)."""
+    try:
+        return case["initial_state"]["regions"][0], case["initial_state"]["background"]
+    except (KeyError, IndexError):
+        sys.exit(f"mpmflow_plot: error: {case_path}: /initial_state: expected a background (the right state) "
+                 "and one region (the left state)")
+
+
 def exact_riemann_of_case(case, case_path, time, mpmflow):
     """The exact solution of a 1D case's Riemann problem (background: the right state, the first
     region: the left state) at `time`, sampled by `mpmflow riemann`: rows x, density, velocity,
     pressure. `case` is the case's JSON (from `case_path`, named in messages)."""
-    try:
-        right = case["initial_state"]["background"]
-        left_region = case["initial_state"]["regions"][0]
-    except (KeyError, IndexError):
-        sys.exit(f"mpmflow_plot: error: {case_path}: /initial_state: expected a background (the right state) "
-                 "and one region (the left state)")
+    left_region, right = riemann_states(case, case_path)
     x0 = left_region["x"][1]
     gamma = case.get("physics", {}).get("gamma", 1.4)
     x_lo, x_hi = case["domain"]["x"]
@@ -814,8 +819,7 @@ def godunov_error(args):
     s = Snapshot(path)
     case = s.effective_case
     g = s.gamma
-    right = case["initial_state"]["background"]
-    left = case["initial_state"]["regions"][0]
+    left, right = riemann_states(case, path)
     x_lo, x_hi = case["domain"]["x"]
     cells = case["domain"]["cells_x"]
     h = (x_hi - x_lo) / cells
