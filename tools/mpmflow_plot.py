@@ -711,6 +711,15 @@ def mass_balance(args):
     return 1 if breaks_bound("mass balance residual", worst, args.max_residual, lambda v: f"{v:.2e}") else 0
 
 
+def density_l1(exact, numerical, interval):
+    """The L1 norm of a numerical density against the exact one over the exact solution's samples
+    (rows x, density, ...) in `interval` [A, B] (all of them for None), and which samples those
+    are: the one measure of riemann-error and its reference, godunov-error."""
+    samples = exact[:, 0]
+    within = (samples >= interval[0]) & (samples <= interval[1]) if interval else np.ones_like(samples, dtype=bool)
+    return float(np.sum(np.abs(numerical - exact[:, 1])[within]) * (samples[1] - samples[0])), within
+
+
 def riemann_error(args):
     """Density L1 error of a 1D run against the exact Riemann solution, with particle-free gaps
     counted as vacuum: each particle stands for the interval of its volume (M / rho over the
@@ -740,9 +749,8 @@ def riemann_error(args):
     np.add.at(count, np.minimum(hi, len(samples) - 1), -1.0 * (hi < len(samples)))
     total, count = np.cumsum(total), np.cumsum(count)
     numerical = np.where(count > 0.5, total / np.maximum(count, 1), 0.0)
+    l1, within = density_l1(exact, numerical, args.x)
     dx = samples[1] - samples[0]
-    within = (samples >= args.x[0]) & (samples <= args.x[1]) if args.x else np.ones_like(samples, dtype=bool)
-    l1 = float(np.sum(np.abs(numerical - exact[:, 1])[within]) * dx)
     order = np.sort(x[(x >= args.x[0]) & (x <= args.x[1])] if args.x else x)
     count = count[within]
     gap = float(np.max(np.diff(order))) / h if len(order) > 1 else 0.0
@@ -845,8 +853,7 @@ def godunov_error(args):
     exact = exact_riemann_of_case(case, path, s.time, args.mpmflow)
     samples = exact[:, 0]
     numerical = conserved[0][np.clip(((samples - x_lo) / h).astype(int), 0, cells - 1)]
-    within = (samples >= args.x[0]) & (samples <= args.x[1]) if args.x else np.ones_like(samples, dtype=bool)
-    l1 = float(np.sum(np.abs(numerical - exact[:, 1])[within]) * (samples[1] - samples[0]))
+    l1, _ = density_l1(exact, numerical, args.x)
     print(f"{s.case} t = {s.time:g}, {cells} cells: first-order Godunov (exact Riemann fluxes, CFL {args.cfl:g}, "
           f"{steps} steps) density L1 {l1:.5f}")
     return 0
