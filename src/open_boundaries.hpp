@@ -188,21 +188,19 @@ KOKKOS_INLINE_FUNCTION void Recycle::operator()(const index_t k) const {
   real_t x = domain.x_min, y = domain.y_min;
   constexpr int max_attempts = 16;  // a point inside an obstacle touching the inflow side is drawn again
   for (int attempt = 0; attempt < max_attempts; ++attempt) {
-    real_t along, depth_fraction;
-    if (attempt == 0) {  // the same place along the inflow and as far inside as it went beyond
-      along = along_fraction * inflow_length;
-      depth_fraction = -1;  // (the depth itself below, once the side is known)
-    } else {
-      along = static_cast<real_t>(counter_uniform(seed, id, step, 2 * attempt)) * inflow_length;
-      depth_fraction = static_cast<real_t>(counter_uniform(seed, id, step, 2 * attempt + 1));
-    }
+    // First the same place along the inflow and as far inside as it went beyond; then random points.
+    const bool where_it_left = attempt == 0;
+    const real_t along = where_it_left ? along_fraction * inflow_length
+                                       : static_cast<real_t>(counter_uniform(seed, id, step, 2 * attempt)) *
+                                             inflow_length;
     int s = 0;
     while (s < num_inflow_sides - 1 && along >= inflow_length_end[s]) ++s;
     const real_t t = along - (s > 0 ? inflow_length_end[s - 1] : real_t(0));
     // Beyond by more than the strip is deep (the gas left faster than the free stream enters):
     // wrapped into it, so that the depths stay spread over it.
-    const real_t depth = depth_fraction < 0 ? beyond - strip_depth[s] * GridGeometry::floor_div(beyond, strip_depth[s])
-                                            : depth_fraction * strip_depth[s];
+    const real_t depth = where_it_left ? beyond - strip_depth[s] * GridGeometry::floor_div(beyond, strip_depth[s])
+                                       : static_cast<real_t>(counter_uniform(seed, id, step, 2 * attempt + 1)) *
+                                             strip_depth[s];
     domain.point_inside_side(inflow_side[s], t, depth, x, y);
     if (!(has_obstacles && obstacles(x, y).distance < 0)) break;
   }
