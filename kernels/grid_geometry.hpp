@@ -29,20 +29,27 @@ struct GridGeometry {
   // Clamped to the non-ghost cells, or to all local cells with include_ghosts (a particle that has
   // just moved into a neighbour's slab and is not yet migrated).
   KOKKOS_INLINE_FUNCTION index_t cell_of(real_t x, real_t y, bool include_ghosts = false) const {
+    return cell_of(x, y, real_t(1) / spacing_x, real_t(1) / spacing_y, include_ghosts);
+  }
+  // The same with the reciprocals of the spacings given, real_t(1) / spacing (ParticleLocator keeps
+  // them, so that locating a particle takes multiplications, not two divisions): the same cells.
+  KOKKOS_INLINE_FUNCTION index_t cell_of(real_t x, real_t y, real_t inverse_spacing_x, real_t inverse_spacing_y,
+                                         bool include_ghosts = false) const {
     const index_t g = include_ghosts ? 0 : ghost_cells;
-    index_t ci = static_cast<index_t>(floor_div(x - origin_x, spacing_x));
-    index_t cj = static_cast<index_t>(floor_div(y - origin_y, spacing_y));
+    index_t ci = static_cast<index_t>(floor_real((x - origin_x) * inverse_spacing_x));
+    index_t cj = static_cast<index_t>(floor_real((y - origin_y) * inverse_spacing_y));
     ci = ci < g ? g : (ci >= cells_x() - g ? cells_x() - 1 - g : ci);
     cj = cj < g ? g : (cj >= cells_y() - g ? cells_y() - 1 - g : cj);
     return ci + cells_x() * cj;
   }
 
-  // floor(a / b) for b > 0, as a real (no <cmath> in device code needed).
-  KOKKOS_INLINE_FUNCTION static real_t floor_div(real_t a, real_t b) {
-    const real_t q = a / b;
+  // floor(q), as a real (no <cmath> in device code needed).
+  KOKKOS_INLINE_FUNCTION static real_t floor_real(real_t q) {
     const real_t t = static_cast<real_t>(static_cast<long long>(q));
     return t > q ? t - 1 : t;
   }
+  // floor(a / b) for b > 0.
+  KOKKOS_INLINE_FUNCTION static real_t floor_div(real_t a, real_t b) { return floor_real(a / b); }
 };
 
 }  // namespace mpmflow
