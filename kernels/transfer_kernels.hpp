@@ -741,6 +741,34 @@ struct G2PThenP2GBody {
   }
 };
 
+// One lane of a batch's interpolated values and gradients, stored component by component (each
+// component's L lanes side by side), read as value[c] and gradient[c][axis]: a G2P-and-G2PD sink
+// whose call operator is a template over what it reads takes these, and its calls for a batch's
+// lanes then run as vector lanes (GCC 12 keeps the loop scalar when each lane's values are an array
+// of their own: "no vectype" for their strided loads).
+template <int L>
+struct LaneValues {
+  const real_t* first;  // the lane's component 0
+  KOKKOS_FORCEINLINE_FUNCTION real_t operator[](int c) const { return first[c * L]; }
+};
+template <int L>
+struct LaneGradients {
+  const real_t* first;  // the lane's component 0 along x
+  struct Component {
+    const real_t* first;
+    KOKKOS_FORCEINLINE_FUNCTION real_t operator[](int axis) const { return first[axis * L]; }
+  };
+  KOKKOS_FORCEINLINE_FUNCTION Component operator[](int c) const { return Component{first + 2 * c * L}; }
+};
+// Whether a sink takes them (otherwise it gets each lane's values copied into arrays).
+template <class Sink, int L, class = void>
+struct TakesLanes : std::false_type {};
+template <class Sink, int L>
+struct TakesLanes<Sink, L,
+                  std::void_t<decltype(std::declval<const Sink&>()(index_t(0), std::declval<LaneValues<L>>(),
+                                                                   std::declval<LaneGradients<L>>()))>>
+    : std::true_type {};
+
 // G2P and G2PD body in one: value_c = sum_i F_c(node i) phi_i(X_p) and gradient_c = sum_i
 // F_c(node i) grad phi_i(X_p), handed to sink(p, value, gradient). The value costs a multiply-add
 // per row and column more than the gradient alone: its row sums are the gradient's along y.
@@ -779,20 +807,42 @@ struct G2PAndG2PDBody {
     sink(p, value, gradient);
   }
   // In two phases over a batch (for_each_particle_stencil, ParticleBatches): the interpolations of
-  // L particles, then their sinks, where the sink allows its calls to run as vector lanes.
+  // L particles, then their sinks, where the sink allows its calls to run as vector lanes. The
+  // lanes' values are stored component by component, and handed to a sink that takes them as they
+  // are (LaneValues, LaneGradients) or copied into arrays for one that does not.
   static constexpr bool gathers_then_finishes = WritesOnlyItsParticle<ParticleSink>::value;
   template <int L>
   struct Lanes {
-    real_t value[L][N];  // each lane's as the sink takes it (a local copy keeps GCC scalar)
-    real_t gradient[L][N][2];
+    real_t value[N][L];
+    real_t gradient[N][2][L];
   };
   template <class StencilType, int L>
   KOKKOS_FORCEINLINE_FUNCTION void gather(const StencilType& s, Lanes<L>& lanes, int l) const {
-    interpolate_at(s, lanes.value[l], lanes.gradient[l]);
+    real_t value[N], gradient[N][2];
+    interpolate_at(s, value, gradient);
+    for (int c = 0; c < N; ++c) {
+      lanes.value[c][l] = value[c];
+      lanes.gradient[c][0][l] = gradient[c][0];
+      lanes.gradient[c][1][l] = gradient[c][1];
+    }
   }
   template <int L>
   KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const Lanes<L>& lanes, int l) const {
-    sink(p, lanes.value[l], lanes.gradient[l]);
+    finish(p, lanes, l, TakesLanes<ParticleSink, L>());
+  }
+  template <int L>
+  KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const Lanes<L>& lanes, int l, std::true_type) const {
+    sink(p, LaneValues<L>{&lanes.value[0][l]}, LaneGradients<L>{&lanes.gradient[0][0][l]});
+  }
+  template <int L>
+  KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const Lanes<L>& lanes, int l, std::false_type) const {
+    real_t value[N], gradient[N][2];
+    for (int c = 0; c < N; ++c) {
+      value[c] = lanes.value[c][l];
+      gradient[c][0] = lanes.gradient[c][0][l];
+      gradient[c][1] = lanes.gradient[c][1][l];
+    }
+    sink(p, value, gradient);
   }
 };
 

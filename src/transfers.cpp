@@ -258,11 +258,12 @@ enum MoveAndRemapVelocityColumn : int {
 };
 
 // Step 11's move, X' = X + dt V-bar, V-bar interpolated at the step-10 stencil; the walls, sides
-// and obstacles come after (apply_particle_boundaries).
+// and obstacles come after (apply_particle_boundaries). (Values: as UpdateThermodynamics takes them.)
 struct AdvancePosition {
   RealView position_x, position_y;
   real_t dt;
-  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, const real_t (&value)[5]) const {
+  template <class Values>
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, Values value) const {
     position_x(p) += dt * value[moving_velocity];
     position_y(p) += dt * value[moving_velocity + 1];
   }
@@ -277,9 +278,14 @@ struct UpdateThermodynamics {
   AdvancePosition advance;
   RealView density, specific_energy, viscosity, stretch_x, stretch_y;
   real_t dt, gamma, cell_size, c0, c1;
-  bool energy_consistent, volume_correction;
+  // The options as reals, 1 or 0: GCC 12 keeps a loop scalar whose selects test a bool that does
+  // not change in it (the particle updates of a batch), and vectorises them on a comparison of reals.
+  real_t energy_consistent, volume_correction;
   real_t dt_over_cell_size;  // dt / cell_size, once a step (acoustic_fraction)
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[5], const real_t (&gradient)[5][2]) const {
+  // Values and Gradients: arrays, or a batch's lanes (LaneValues, LaneGradients), read as
+  // value[column] and gradient[column][axis].
+  template <class Values, class Gradients>
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, Values value, Gradients gradient) const {
     advance(p, value);
     const real_t dvx_dx = gradient[remapped_velocity][0], dvy_dy = gradient[remapped_velocity + 1][1];
     const real_t div_v = dvx_dx + dvy_dy;
@@ -291,12 +297,14 @@ struct UpdateThermodynamics {
     const real_t q = artificial_viscosity(rho, sound_speed, cell_size, div_v, c0, c1);
     // Energy-consistent: the viscous pressure that made this step's forces, so that the heat is
     // exactly the kinetic energy the viscosity removed; the paper's update takes the new one.
-    const real_t q_of_work = energy_consistent ? viscosity(p) : q;
+    const real_t previous_q = viscosity(p);  // (read either way: a load under the select kept GCC scalar)
+    const real_t q_of_work = energy_consistent != 0 ? previous_q : q;
     specific_energy(p) = advanced_specific_energy(e, dt, pressure, q_of_work, rho, div_v);
     const real_t advanced = advanced_density(rho, dt, div_v);
-    density(p) = volume_correction ? volume_corrected_density(advanced, value[volume_fraction_at_particle],
-                                                              acoustic_fraction(dt_over_cell_size, sound_speed))
-                                   : advanced;
+    density(p) = volume_correction != 0
+                     ? volume_corrected_density(advanced, value[volume_fraction_at_particle],
+                                                acoustic_fraction(dt_over_cell_size, sound_speed))
+                     : advanced;
     viscosity(p) = q;
   }
 };
@@ -553,8 +561,9 @@ class Transfers final : public TransferKernels {
                    MoveAndRemapVelocity{fields_.per_unit_mass, GridFields::velocity_x},
                    UpdateThermodynamics{advance(pt, dt), pt.density, pt.specific_energy, pt.artificial_viscosity,
                                         pt.domain_stretch_x, pt.domain_stretch_y, dt, k.gamma, k.cell_size,
-                                        k.viscosity_quadratic, k.viscosity_linear, k.energy_consistent,
-                                        k.volume_correction, dt / k.cell_size});
+                                        k.viscosity_quadratic, k.viscosity_linear,
+                                        k.energy_consistent ? real_t(1) : 0, k.volume_correction ? real_t(1) : 0,
+                                        dt / k.cell_size});
     }
   }
 
