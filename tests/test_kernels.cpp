@@ -173,13 +173,30 @@ struct StoreGradient {
   }
 };
 
+// Component `c` of the interpolated values and gradients, read through whatever the kernel hands
+// over: arrays, or the batched traversal's lanes as they are (LaneValues, LaneGradients: a sink with
+// a template call operator takes them). With StoreGradient (arrays, through GradientOnly) the tests
+// of the batched mode cover both ways.
+template <int c>
 struct StoreValueAndGradient {
   using writes_only_its_particle = std::true_type;  // as StoreGradient
-  StoreValue value;
-  StoreGradient gradient;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&v)[1], const real_t (&g)[1][2]) const {
-    value(p, v);
-    gradient(p, g);
+  RealView value, out_x, out_y;
+  template <class Values, class Gradients>
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, Values v, Gradients g) const {
+    value(p) = v[c];
+    out_x(p) = g[c][0];
+    out_y(p) = g[c][1];
+  }
+};
+static_assert(TakesLanes<StoreValueAndGradient<0>, stencil_batch_size>::value, "the lanes handed as they are");
+static_assert(!TakesLanes<GradientOnly<StoreGradient>, stencil_batch_size>::value, "the lanes copied into arrays");
+
+struct TwoLinearNodeFields {  // node values f and 3 f - 1, f = fields(i, 0)
+  static constexpr int num_components = 2;
+  NodeFieldsView fields;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t i, real_t (&v)[2]) const {
+    v[0] = fields(i, 0);
+    v[1] = 3 * fields(i, 0) - 1;
   }
 };
 
@@ -487,7 +504,7 @@ TYPED_TEST(TransferKernels, G2PReproducesLinearNodalFieldAndGradientExactly) {
   // The two in one pass: the same values and gradients.
   RealView both_value("both_value", d.count), both_x("both_x", d.count), both_y("both_y", d.count);
   g2p_and_g2pd("test_g2p_and_g2pd", shape, d.where, all, NodeColumn{nodal},
-               StoreValueAndGradient{{both_value}, {both_x, both_y}});
+               StoreValueAndGradient<0>{both_value, both_x, both_y});
   auto bv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), both_value);
   auto bx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), both_x);
   auto by = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), both_y);
@@ -495,6 +512,17 @@ TYPED_TEST(TransferKernels, G2PReproducesLinearNodalFieldAndGradientExactly) {
     ASSERT_NEAR(bv(k), hv(k), 1e-14) << k;
     ASSERT_NEAR(bx(k), hgx(k), 1e-13) << k;
     ASSERT_NEAR(by(k), hgy(k), 1e-13) << k;
+  }
+  // The second of two node fields, 3 f - 1: its value and gradient, not the first's.
+  g2p_and_g2pd("test_g2p_and_g2pd_second", shape, d.where, all, TwoLinearNodeFields{nodal},
+               StoreValueAndGradient<1>{both_value, both_x, both_y});
+  Kokkos::deep_copy(bv, both_value);
+  Kokkos::deep_copy(bx, both_x);
+  Kokkos::deep_copy(by, both_y);
+  for (index_t k = 0; k < d.count; ++k) {
+    ASSERT_NEAR(bv(k), 3 * linear_field(hx(k), hy(k)) - 1, 1e-12) << k;
+    ASSERT_NEAR(bx(k), 3 * -2.0, 1e-11) << k;
+    ASSERT_NEAR(by(k), 3 * 0.75, 1e-11) << k;
   }
 }
 
