@@ -29,18 +29,27 @@ struct GridGeometry {
   // Clamped to the non-ghost cells, or to all local cells with include_ghosts (a particle that has
   // just moved into a neighbour's slab and is not yet migrated).
   KOKKOS_INLINE_FUNCTION index_t cell_of(real_t x, real_t y, bool include_ghosts = false) const {
-    return cell_of(x, y, real_t(1) / spacing_x, real_t(1) / spacing_y, include_ghosts);
+    return cell_of(x, y, inverse_spacing(0), inverse_spacing(1), include_ghosts);
   }
-  // The same with the reciprocals of the spacings given, real_t(1) / spacing (ParticleLocator keeps
+  // The same with the reciprocals of the spacings given, inverse_spacing (ParticleLocator keeps
   // them, so that locating a particle takes multiplications, not two divisions): the same cells.
   KOKKOS_INLINE_FUNCTION index_t cell_of(real_t x, real_t y, real_t inverse_spacing_x, real_t inverse_spacing_y,
                                          bool include_ghosts = false) const {
     const index_t g = include_ghosts ? 0 : ghost_cells;
-    index_t ci = static_cast<index_t>(floor_real((x - origin_x) * inverse_spacing_x));
-    index_t cj = static_cast<index_t>(floor_real((y - origin_y) * inverse_spacing_y));
+    index_t ci = cell_along(0, x, inverse_spacing_x);
+    index_t cj = cell_along(1, y, inverse_spacing_y);
     ci = ci < g ? g : (ci >= cells_x() - g ? cells_x() - 1 - g : ci);
     cj = cj < g ? g : (cj >= cells_y() - g ? cells_y() - 1 - g : cj);
     return ci + cells_x() * cj;
+  }
+  // 1 / spacing along `along` (0: x, 1: y): every cell computation multiplies by this one value.
+  KOKKOS_INLINE_FUNCTION real_t inverse_spacing(int along) const {
+    return real_t(1) / (along == 0 ? spacing_x : spacing_y);
+  }
+  // The cell index along `along` of a coordinate on that axis, not clamped (cell_of clamps it; the
+  // slabs' global cells shift it), given inverse_spacing(along).
+  KOKKOS_INLINE_FUNCTION index_t cell_along(int along, real_t coordinate, real_t inverse_spacing_along) const {
+    return static_cast<index_t>(floor_real((coordinate - (along == 0 ? origin_x : origin_y)) * inverse_spacing_along));
   }
 
   // floor(q), as a real (no <cmath> in device code needed).

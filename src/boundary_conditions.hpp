@@ -84,7 +84,7 @@ class GridBoundaryConditions {
 struct ParticleLocator {
   DomainBox domain;
   GridGeometry grid;
-  real_t inverse_spacing_x = real_t(1) / grid.spacing_x, inverse_spacing_y = real_t(1) / grid.spacing_y;
+  real_t inverse_spacing_x = grid.inverse_spacing(0), inverse_spacing_y = grid.inverse_spacing(1);
   KOKKOS_INLINE_FUNCTION index_t operator()(real_t x, real_t y) const {
     return domain.outside(x, y) ? index_t(left_the_domain) : grid.cell_of(x, y, inverse_spacing_x, inverse_spacing_y);
   }

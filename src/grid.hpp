@@ -89,10 +89,8 @@ struct GridSlab {
   // Global cell index along `along` of the point (x, y) (it may lie outside this slab),
   // clamped to the domain: the arithmetic of GridGeometry::cell_of on the global grid.
   KOKKOS_INLINE_FUNCTION index_t global_cell_along(int along, real_t x, real_t y) const {
-    const real_t scaled = along == 0 ? (x - geometry.origin_x) * (real_t(1) / geometry.spacing_x)
-                                     : (y - geometry.origin_y) * (real_t(1) / geometry.spacing_y);
-    const real_t local = GridGeometry::floor_real(scaled);
-    const index_t cell = static_cast<index_t>(local) + node_offset(along);
+    const index_t cell =
+        geometry.cell_along(along, along == 0 ? x : y, geometry.inverse_spacing(along)) + node_offset(along);
     return cell < 0 ? 0 : (cell >= global_cells(along) ? global_cells(along) - 1 : cell);
   }
 };
