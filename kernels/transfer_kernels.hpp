@@ -212,6 +212,21 @@ KOKKOS_FORCEINLINE_FUNCTION void finish_lanes(const Body& body, const ListedPart
     body.finish(particle(l), lanes, l);
   }
 }
+// A gathering body whose gather(stencil, lanes, l) only loads lane l's node values, and whose
+// interpolate_lanes(batch, count, lanes) then weighs them for all the batch's lanes at once, from
+// the batch's weights, as vector lanes: marked by a member interpolates_in_lanes = true.
+template <class Body, class = void>
+struct InterpolatesInLanes : std::false_type {};
+template <class Body>
+struct InterpolatesInLanes<Body, std::void_t<decltype(Body::interpolates_in_lanes)>>
+    : std::integral_constant<bool, Body::interpolates_in_lanes> {};
+template <int L, class Body, class Batch, class Lanes>
+KOKKOS_FORCEINLINE_FUNCTION void interpolate_lanes(const Body&, const Batch&, int, Lanes&, std::false_type) {}
+template <int L, class Body, class Batch, class Lanes>
+KOKKOS_FORCEINLINE_FUNCTION void interpolate_lanes(const Body& body, const Batch& batch, int count, Lanes& lanes,
+                                                   std::true_type) {
+  body.interpolate_lanes(batch, count, lanes);
+}
 template <int L, class Body, class Batch, class Particles, class Lanes>
 KOKKOS_FORCEINLINE_FUNCTION void gather_then_finish(const Body& body, const Batch& batch, const Particles& particle,
                                                     int count, index_t row_stride, Lanes& lanes) {
@@ -219,6 +234,7 @@ KOKKOS_FORCEINLINE_FUNCTION void gather_then_finish(const Body& body, const Batc
     if (l == count) break;
     body.gather(batch.stencil(l, row_stride), lanes, l);
   }
+  interpolate_lanes<L>(body, batch, count, lanes, InterpolatesInLanes<Body>());
   finish_lanes<L>(body, particle, count, lanes);
 }
 template <int L, class Body, class Batch, class Particles>
@@ -701,6 +717,24 @@ struct G2PBody {
   }
 };
 
+// The node values of a batch's stencils (K x K nodes, node (a, b) at a + K b), lane by lane and
+// component by component, for interpolations run as vector lanes (InterpolatesInLanes): loaded
+// particle by particle (scalar loads: vector gathers cost more on CPUs), read for all lanes at once.
+template <int N, int K, int L>
+struct NodeValueLanes {
+  real_t value[N][K * K][L];
+  template <class StencilType, class NodeFunctor>
+  KOKKOS_FORCEINLINE_FUNCTION void load(const StencilType& s, const NodeFunctor& node_functor, int l) {
+    static_assert(StencilType::width == K, "the body's stencil width is the shape's");
+    for (int b = 0; b < K; ++b)
+      for (int a = 0; a < K; ++a) {
+        real_t node_value[N];
+        node_functor(s.node(a, b), node_value);
+        for (int c = 0; c < N; ++c) value[c][a + K * b][l] = node_value[c];
+      }
+  }
+};
+
 // G2P then P2G body: the interpolated value goes to update(p, value, out), and out is accumulated.
 template <class NodeFunctor, class ParticleUpdate, class Access>
 struct G2PThenP2GBody {
@@ -719,7 +753,9 @@ struct G2PThenP2GBody {
     accumulate(s, scatter.access(), first_component, out);
   }
   // In three phases over a batch (GathersThenFinishes and PreparesThenScatters), where the update
-  // writes nothing but its own particle: the interpolations, the updates, the additions.
+  // writes nothing but its own particle: the interpolations, the updates, the additions. (Its
+  // interpolations of two columns in vector lanes, as G2PAndG2PDBody's, were slower with GIMP: the
+  // node values' stores into the lanes cost more than the few multiply-adds they save.)
   static constexpr bool gathers_then_finishes = WritesOnlyItsParticle<ParticleUpdate>::value;
   static constexpr bool prepares_then_scatters = WritesOnlyItsParticle<ParticleUpdate>::value;
   template <int L>
@@ -772,7 +808,8 @@ struct TakesLanes<Sink, L,
 // G2P and G2PD body in one: value_c = sum_i F_c(node i) phi_i(X_p) and gradient_c = sum_i
 // F_c(node i) grad phi_i(X_p), handed to sink(p, value, gradient). The value costs a multiply-add
 // per row and column more than the gradient alone: its row sums are the gradient's along y.
-template <class NodeFunctor, class ParticleSink>
+// K: the shape's stencil width (Shape::stencil_width).
+template <class NodeFunctor, class ParticleSink, int K>
 struct G2PAndG2PDBody {
   static constexpr int N = NodeFunctor::num_components;
   NodeFunctor node_functor;
@@ -780,7 +817,7 @@ struct G2PAndG2PDBody {
   template <class StencilType>
   KOKKOS_FORCEINLINE_FUNCTION void interpolate_at(const StencilType& s, real_t (&value)[N],
                                                   real_t (&gradient)[N][2]) const {
-    constexpr int K = StencilType::width;
+    static_assert(StencilType::width == K, "the body's stencil width is the shape's");
     for (int c = 0; c < N; ++c) value[c] = gradient[c][0] = gradient[c][1] = 0;
     for (int b = 0; b < K; ++b) {
       real_t row_w[N], row_g[N];  // sums over the row of wx[a] F and gx[a] F
@@ -806,24 +843,50 @@ struct G2PAndG2PDBody {
     interpolate_at(s, value, gradient);
     sink(p, value, gradient);
   }
-  // In two phases over a batch (for_each_particle_stencil, ParticleBatches): the interpolations of
-  // L particles, then their sinks, where the sink allows its calls to run as vector lanes. The
-  // lanes' values are stored component by component, and handed to a sink that takes them as they
-  // are (LaneValues, LaneGradients) or copied into arrays for one that does not.
+  // In three phases over a batch (for_each_particle_stencil, ParticleBatches), where the sink allows
+  // its calls to run as vector lanes: the node values of the L particles' stencils, particle by
+  // particle (scalar loads: vector gathers cost more on CPUs); then their interpolations, as vector
+  // lanes, from the batch's weights (the multiply-adds, most of the kernel's instructions, 8 lanes
+  // at a time with AVX-512; the same operations in the same order as interpolate_at); then the
+  // sinks. The lanes' values are stored component by component, and handed to a sink that takes
+  // them as they are (LaneValues, LaneGradients) or copied into arrays for one that does not.
   static constexpr bool gathers_then_finishes = WritesOnlyItsParticle<ParticleSink>::value;
+  static constexpr bool interpolates_in_lanes = true;
   template <int L>
   struct Lanes {
+    NodeValueLanes<N, K, L> nodes;
     real_t value[N][L];
     real_t gradient[N][2][L];
   };
   template <class StencilType, int L>
   KOKKOS_FORCEINLINE_FUNCTION void gather(const StencilType& s, Lanes<L>& lanes, int l) const {
-    real_t value[N], gradient[N][2];
-    interpolate_at(s, value, gradient);
-    for (int c = 0; c < N; ++c) {
-      lanes.value[c][l] = value[c];
-      lanes.gradient[c][0][l] = gradient[c][0];
-      lanes.gradient[c][1][l] = gradient[c][1];
+    lanes.nodes.load(s, node_functor, l);
+  }
+  template <class Batch, int L>
+  KOKKOS_FORCEINLINE_FUNCTION void interpolate_lanes(const Batch& batch, int count, Lanes<L>& lanes) const {
+    MPMFLOW_VECTORISE
+    for (int l = 0; l < count; ++l) {
+      real_t value[N], gradient_x[N], gradient_y[N];
+      for (int c = 0; c < N; ++c) value[c] = gradient_x[c] = gradient_y[c] = 0;
+      for (int b = 0; b < K; ++b) {
+        real_t row_w[N], row_g[N];
+        for (int c = 0; c < N; ++c) row_w[c] = row_g[c] = 0;
+        for (int a = 0; a < K; ++a)
+          for (int c = 0; c < N; ++c) {
+            row_w[c] += batch.wx[a][l] * lanes.nodes.value[c][a + K * b][l];
+            row_g[c] += batch.gx[a][l] * lanes.nodes.value[c][a + K * b][l];
+          }
+        for (int c = 0; c < N; ++c) {
+          value[c] += batch.wy[b][l] * row_w[c];
+          gradient_x[c] += batch.wy[b][l] * row_g[c];
+          gradient_y[c] += batch.gy[b][l] * row_w[c];
+        }
+      }
+      for (int c = 0; c < N; ++c) {
+        lanes.value[c][l] = value[c];
+        lanes.gradient[c][0][l] = gradient_x[c];
+        lanes.gradient[c][1][l] = gradient_y[c];
+      }
     }
   }
   template <int L>
@@ -916,7 +979,7 @@ template <class Shape, class NodeFunctor, class ParticleSink, class Traversal>
 void g2pd(const char* label, const Shape& shape, const ParticleLocations& particles, const Traversal& traversal,
           const NodeFunctor& node_functor, const ParticleSink& sink) {
   for_each_particle_stencil(label, shape, particles, traversal,
-                            G2PAndG2PDBody<NodeFunctor, GradientOnly<ParticleSink>>{node_functor, {sink}});
+                            G2PAndG2PDBody<NodeFunctor, GradientOnly<ParticleSink>, Shape::stencil_width>{node_functor, {sink}});
 }
 
 // G2P and G2PD in one pass, with one stencil: value_c(p) = sum_i F_c(node i) phi_i(X_p) and
@@ -927,7 +990,7 @@ template <class Shape, class NodeFunctor, class ParticleSink, class Traversal>
 void g2p_and_g2pd(const char* label, const Shape& shape, const ParticleLocations& particles,
                   const Traversal& traversal, const NodeFunctor& node_functor, const ParticleSink& sink) {
   for_each_particle_stencil(label, shape, particles, traversal,
-                            G2PAndG2PDBody<NodeFunctor, ParticleSink>{node_functor, sink});
+                            G2PAndG2PDBody<NodeFunctor, ParticleSink, Shape::stencil_width>{node_functor, sink});
 }
 
 }  // namespace mpmflow
