@@ -3,7 +3,10 @@
 // particles that left for another rank) and at open sides of the domain (those that left it).
 // The holes the removed particles leave below the new count are filled by the last staying
 // particles, both in index order: the result is the same on any thread count.
+#include <cstring>
 #include <string>
+#include <type_traits>
+#include <vector>
 
 #include "kernels/types.hpp"
 
@@ -40,9 +43,11 @@ void fill_holes(const FieldView& field, const IndexView& holes, const IndexView&
 
 // The same, listed in `buffer` (kept by the caller from call to call, grown here where it is too
 // short) in one scan that also counts them: for selections made every step, a pass over the
-// particles fewer than counting first. Returns the first `count` entries of `buffer`.
+// particles fewer than counting first. Returns the first `count` entries of `buffer`. Where the
+// particles are in host memory, select_indices_in_parts instead.
 template <class Predicate>
-IndexView select_indices(const char* label, index_t first, index_t last, const Predicate& keep, IndexView& buffer) {
+IndexView select_indices_by_scan(const char* label, index_t first, index_t last, const Predicate& keep,
+                                 IndexView& buffer) {
   index_t count = 0;
   for (;;) {
     const IndexView selected = buffer;
@@ -60,6 +65,59 @@ IndexView select_indices(const char* label, index_t first, index_t last, const P
     buffer = IndexView(std::string(label), static_cast<size_t>(count + count / 4));
   }
   return Kokkos::subview(buffer, std::make_pair(index_t(0), count));
+}
+
+// On CPUs, with the predicate evaluated once per particle: a scan evaluates it twice (Kokkos'
+// parallel_scan on CPUs runs each thread's range once to count, once to write), reading what it
+// reads twice. Here each of `parts` consecutive ranges of particles lists its own into its part of
+// `buffer`, and the parts are then moved together on the host (the selections are small). Where a
+// part is too short, the buffer grows and the pass runs again. The same list, in increasing order,
+// for any number of parts (threads).
+template <class Predicate>
+IndexView select_indices_in_parts(const char* label, index_t first, index_t last, const Predicate& keep,
+                                  IndexView& buffer) {
+  const index_t parts = ExecutionSpace().concurrency();
+  const index_t n = last - first;
+  std::vector<index_t> counts(static_cast<size_t>(parts));
+  index_t* const part_count = counts.data();
+  for (;;) {
+    const IndexView selected = buffer;
+    const index_t part_size = static_cast<index_t>(selected.extent(0)) / parts;
+    Kokkos::parallel_for(
+        label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
+          const index_t begin = first + static_cast<index_t>((static_cast<long long>(n) * k) / parts);
+          const index_t end = first + static_cast<index_t>((static_cast<long long>(n) * (k + 1)) / parts);
+          index_t* const out = selected.data() + part_size * k;
+          index_t count = 0;
+          for (index_t p = begin; p < end; ++p)
+            if (keep(p)) {
+              if (count < part_size) out[count] = p;
+              ++count;
+            }
+          part_count[k] = count;
+        });
+    index_t largest = 0;
+    for (index_t k = 0; k < parts; ++k) largest = part_count[k] > largest ? part_count[k] : largest;
+    if (largest <= part_size) break;
+    buffer = IndexView(std::string(label), static_cast<size_t>(parts * (largest + largest / 4)));
+  }
+  // Part k to the end of parts 0 .. k - 1: to the left (or where it is), in order, so that no part
+  // is overwritten before it moves.
+  const index_t part_size = static_cast<index_t>(buffer.extent(0)) / parts;
+  index_t count = 0;
+  for (index_t k = 0; k < parts; ++k) {
+    std::memmove(buffer.data() + count, buffer.data() + part_size * k, sizeof(index_t) * part_count[k]);
+    count += part_count[k];
+  }
+  return Kokkos::subview(buffer, std::make_pair(index_t(0), count));
+}
+
+template <class Predicate>
+IndexView select_indices(const char* label, index_t first, index_t last, const Predicate& keep, IndexView& buffer) {
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+    return select_indices_in_parts(label, first, last, keep, buffer);
+  else
+    return select_indices_by_scan(label, first, last, keep, buffer);
 }
 
 // The hole filling that packs the staying particles of [0, n) into [0, staying): the removed

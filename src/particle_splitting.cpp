@@ -1,5 +1,7 @@
 #include "particle_splitting.hpp"
 
+#include "kernels/particle_compaction.hpp"
+
 #include <algorithm>
 #include <string>
 #include <vector>
@@ -66,25 +68,13 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
   if (!enabled_) return 0;
   const SplitRule rule{boundaries, initial_half_x_, initial_half_y_, initial_volume_};
   const index_t count = particles.count;
-  // The splitting particles in index order, counted and listed in one scan; where the list of the
-  // last splits is too short for them, it grows and the scan runs again (a count pass of its own
-  // every step cost a third more reads of the candidates' fields).
-  index_t num_local = 0;
-  for (;;) {
-    const ParticleState pt = particles;
-    const IndexView parent = parent_;
-    const index_t capacity = static_cast<index_t>(parent.extent(0));
-    Kokkos::parallel_scan(
-        "split_list", Kokkos::RangePolicy<ExecutionSpace>(0, count),
-        KOKKOS_LAMBDA(const index_t p, index_t& offset, const bool final) {
-          if (!rule.splits(pt, p)) return;
-          if (final && offset < capacity) parent(offset) = p;
-          ++offset;
-        },
-        num_local);
-    if (num_local <= capacity) break;
-    parent_ = IndexView("split_parent", num_local + num_local / 8);
-  }
+  // The splitting particles in index order, counted and listed in one pass (select_indices, into
+  // the list of the last splits, grown where it is too short).
+  const ParticleState before = particles;
+  const index_t num_local = static_cast<index_t>(
+      select_indices(
+          "split_list", 0, count, KOKKOS_LAMBDA(const index_t p) { return rule.splits(before, p); }, parent_)
+          .extent(0));
   const long long num_global = context.sum(static_cast<long long>(num_local));
   if (num_global == 0) return 0;
 

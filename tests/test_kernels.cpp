@@ -11,6 +11,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "kernels/particle_compaction.hpp"
 #include "kernels/particle_sort.hpp"
 #include "kernels/transfer_kernels.hpp"
 
@@ -632,6 +633,37 @@ TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
       ++seen[particle(s)];
     }
   for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
+}
+
+// select_indices with a buffer kept from call to call: the selected indices of [first, last) in
+// increasing order. (A function, not a generic lambda: nvcc allows no device lambda launched from one.)
+template <class Predicate>
+void expect_selection(index_t first, index_t last, const Predicate& keep, IndexView& buffer, index_t expected_count) {
+  std::vector<index_t> expected;
+  for (index_t p = first; p < last; ++p)
+    if (keep(p)) expected.push_back(p);
+  ASSERT_EQ(static_cast<index_t>(expected.size()), expected_count);
+  const IndexView selected = select_indices("test_select", first, last, keep, buffer);
+  auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), selected);
+  ASSERT_EQ(static_cast<index_t>(host.extent(0)), expected_count);
+  for (index_t k = 0; k < expected_count; ++k) ASSERT_EQ(host(k), expected[k]) << "entry " << k;
+}
+
+// From an empty buffer, with the selections crowded into one end of the range (on CPUs, where each
+// thread lists its range into its own part of the buffer, that part overflows and the buffer
+// grows), then again into the grown buffer with fewer and with none selected.
+TEST(ParticleCompaction, SelectIndicesListsTheSelectedInIncreasingOrder) {
+  const index_t first = 5, last = 5000;
+  IndexView buffer;
+  // Every third particle of the last 600, and every 97th elsewhere.
+  expect_selection(
+      first, last, KOKKOS_LAMBDA(const index_t p) { return p >= 4400 ? p % 3 == 0 : p % 97 == 11; }, buffer,
+      200 + 46);
+  const size_t grown = buffer.extent(0);
+  EXPECT_GE(grown, size_t(246));
+  expect_selection(first, last, KOKKOS_LAMBDA(const index_t p) { return p % 50 == 7; }, buffer, 100);
+  EXPECT_EQ(buffer.extent(0), grown);  // kept
+  expect_selection(first, last, KOKKOS_LAMBDA(const index_t p) { return p < 0; }, buffer, 0);
 }
 
 TYPED_TEST(TransferKernels, P2GThenG2PReproducesLinearFieldsExactly) {
