@@ -12,9 +12,17 @@
 
 namespace mpmflow {
 
-// Indices p in [first, last) with keep(p) true, in increasing order.
+// The first particle of part k of `parts` consecutive ranges that split [first, first + n).
+KOKKOS_INLINE_FUNCTION index_t part_begin(index_t first, index_t n, index_t parts, index_t k) {
+  return first + static_cast<index_t>((static_cast<long long>(n) * k) / parts);
+}
+
+// Indices p in [first, last) with keep(p) true, in increasing order: counted, then listed. Where the
+// particles are in host memory, each of `parts` consecutive ranges (a thread's) counts its own, then
+// lists them from its offset: Kokkos' parallel_scan on CPUs would evaluate the predicate twice
+// more. The same list for any number of parts (threads).
 template <class Predicate>
-IndexView select_indices(const char* label, index_t first, index_t last, const Predicate& keep) {
+IndexView select_indices_by_scan(const char* label, index_t first, index_t last, const Predicate& keep) {
   index_t count = 0;
   Kokkos::parallel_reduce(
       label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
@@ -31,14 +39,35 @@ IndexView select_indices(const char* label, index_t first, index_t last, const P
       });
   return selected;
 }
-
-// field(holes(k)) = field(fillers(k)) for k in [0, count). (A named function, not a lambda in the
-// caller: nvcc does not allow a device lambda inside the generic lambdas that visit the fields.)
-template <class FieldView>
-void fill_holes(const FieldView& field, const IndexView& holes, const IndexView& fillers, index_t count) {
+template <class Predicate>
+IndexView select_indices_in_parts(const char* label, index_t first, index_t last, const Predicate& keep) {
+  const index_t parts = ExecutionSpace().concurrency(), n = last - first;
+  std::vector<index_t> offsets(static_cast<size_t>(parts + 1), 0);
+  index_t* const part_offset = offsets.data();
   Kokkos::parallel_for(
-      "particle_fill_holes", Kokkos::RangePolicy<ExecutionSpace>(0, count),
-      KOKKOS_LAMBDA(const index_t k) { field(holes(k)) = field(fillers(k)); });
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
+        index_t count = 0;
+        for (index_t p = part_begin(first, n, parts, k); p < part_begin(first, n, parts, k + 1); ++p)
+          count += keep(p) ? 1 : 0;
+        part_offset[k + 1] = count;
+      });
+  for (index_t k = 0; k < parts; ++k) offsets[k + 1] += offsets[k];
+  IndexView selected(std::string(label), static_cast<size_t>(offsets[parts]));
+  if (offsets[parts] == 0) return selected;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
+        index_t* out = selected.data() + part_offset[k];
+        for (index_t p = part_begin(first, n, parts, k); p < part_begin(first, n, parts, k + 1); ++p)
+          if (keep(p)) *out++ = p;
+      });
+  return selected;
+}
+template <class Predicate>
+IndexView select_indices(const char* label, index_t first, index_t last, const Predicate& keep) {
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+    return select_indices_in_parts(label, first, last, keep);
+  else
+    return select_indices_by_scan(label, first, last, keep);
 }
 
 // The same, listed in `buffer` (kept by the caller from call to call, grown here where it is too
@@ -85,11 +114,9 @@ IndexView select_indices_in_parts(const char* label, index_t first, index_t last
     const index_t part_size = static_cast<index_t>(selected.extent(0)) / parts;
     Kokkos::parallel_for(
         label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
-          const index_t begin = first + static_cast<index_t>((static_cast<long long>(n) * k) / parts);
-          const index_t end = first + static_cast<index_t>((static_cast<long long>(n) * (k + 1)) / parts);
           index_t* const out = selected.data() + part_size * k;
           index_t count = 0;
-          for (index_t p = begin; p < end; ++p)
+          for (index_t p = part_begin(first, n, parts, k); p < part_begin(first, n, parts, k + 1); ++p)
             if (keep(p)) {
               if (count < part_size) out[count] = p;
               ++count;
@@ -118,6 +145,15 @@ IndexView select_indices(const char* label, index_t first, index_t last, const P
     return select_indices_in_parts(label, first, last, keep, buffer);
   else
     return select_indices_by_scan(label, first, last, keep, buffer);
+}
+
+// field(holes(k)) = field(fillers(k)) for k in [0, count). (A named function, not a lambda in the
+// caller: nvcc does not allow a device lambda inside the generic lambdas that visit the fields.)
+template <class FieldView>
+void fill_holes(const FieldView& field, const IndexView& holes, const IndexView& fillers, index_t count) {
+  Kokkos::parallel_for(
+      "particle_fill_holes", Kokkos::RangePolicy<ExecutionSpace>(0, count),
+      KOKKOS_LAMBDA(const index_t k) { field(holes(k)) = field(fillers(k)); });
 }
 
 // The hole filling that packs the staying particles of [0, n) into [0, staying): the removed

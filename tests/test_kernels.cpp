@@ -635,18 +635,21 @@ TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
   for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
 }
 
-// select_indices with a buffer kept from call to call: the selected indices of [first, last) in
-// increasing order. (A function, not a generic lambda: nvcc allows no device lambda launched from one.)
+// select_indices, with a buffer kept from call to call and without: the selected indices of
+// [first, last) in increasing order. (A function, not a generic lambda: nvcc allows no device lambda launched from one.)
 template <class Predicate>
 void expect_selection(index_t first, index_t last, const Predicate& keep, IndexView& buffer, index_t expected_count) {
   std::vector<index_t> expected;
   for (index_t p = first; p < last; ++p)
     if (keep(p)) expected.push_back(p);
   ASSERT_EQ(static_cast<index_t>(expected.size()), expected_count);
-  const IndexView selected = select_indices("test_select", first, last, keep, buffer);
-  auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), selected);
-  ASSERT_EQ(static_cast<index_t>(host.extent(0)), expected_count);
-  for (index_t k = 0; k < expected_count; ++k) ASSERT_EQ(host(k), expected[k]) << "entry " << k;
+  // Into the kept buffer, and (the other form) into a View of its own.
+  for (const IndexView& selected :
+       {select_indices("test_select", first, last, keep, buffer), select_indices("test_select", first, last, keep)}) {
+    auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), selected);
+    ASSERT_EQ(static_cast<index_t>(host.extent(0)), expected_count);
+    for (index_t k = 0; k < expected_count; ++k) ASSERT_EQ(host(k), expected[k]) << "entry " << k;
+  }
 }
 
 // From an empty buffer, with the selections crowded into one end of the range (on CPUs, where each
