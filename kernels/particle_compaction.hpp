@@ -46,9 +46,11 @@ IndexView select_indices_in_parts(const char* label, index_t first, index_t last
   index_t* const part_offset = offsets.data();
   Kokkos::parallel_for(
       label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
+        // (The bounds in locals: the loop's stores might alias the captured values, and part_begin
+        // divides.)
+        const index_t begin = part_begin(first, n, parts, k), end = part_begin(first, n, parts, k + 1);
         index_t count = 0;
-        for (index_t p = part_begin(first, n, parts, k); p < part_begin(first, n, parts, k + 1); ++p)
-          count += keep(p) ? 1 : 0;
+        for (index_t p = begin; p < end; ++p) count += keep(p) ? 1 : 0;
         part_offset[k + 1] = count;
       });
   for (index_t k = 0; k < parts; ++k) offsets[k + 1] += offsets[k];
@@ -56,8 +58,9 @@ IndexView select_indices_in_parts(const char* label, index_t first, index_t last
   if (offsets[parts] == 0) return selected;
   Kokkos::parallel_for(
       label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
+        const index_t begin = part_begin(first, n, parts, k), end = part_begin(first, n, parts, k + 1);
         index_t* out = selected.data() + part_offset[k];
-        for (index_t p = part_begin(first, n, parts, k); p < part_begin(first, n, parts, k + 1); ++p)
+        for (index_t p = begin; p < end; ++p)
           if (keep(p)) *out++ = p;
       });
   return selected;
@@ -114,9 +117,12 @@ IndexView select_indices_in_parts(const char* label, index_t first, index_t last
     const index_t part_size = static_cast<index_t>(selected.extent(0)) / parts;
     Kokkos::parallel_for(
         label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
+          // (The bounds in locals: the loop's stores might alias the captured values, and part_begin
+          // divides.)
+          const index_t begin = part_begin(first, n, parts, k), end = part_begin(first, n, parts, k + 1);
           index_t* const out = selected.data() + part_size * k;
           index_t count = 0;
-          for (index_t p = part_begin(first, n, parts, k); p < part_begin(first, n, parts, k + 1); ++p)
+          for (index_t p = begin; p < end; ++p)
             if (keep(p)) {
               if (count < part_size) out[count] = p;
               ++count;
