@@ -86,8 +86,10 @@ class CellOrder {
     Kokkos::deep_copy(start, 0);
     Kokkos::parallel_for(
         "cell_order_count", Kokkos::RangePolicy<ExecutionSpace>(0, chunks), KOKKOS_LAMBDA(const index_t t) {
-          for (index_t p = chunk_begin(num_particles, chunks, t); p < chunk_begin(num_particles, chunks, t + 1); ++p)
-            ++start(particle_cell(p), t);
+          // (The bounds in locals: in the loop's condition, the division ran for every particle,
+          // since the loop's stores might alias what it reads them from.)
+          const index_t begin = chunk_begin(num_particles, chunks, t), end = chunk_begin(num_particles, chunks, t + 1);
+          for (index_t p = begin; p < end; ++p) ++start(particle_cell(p), t);
         });
     // Each cell's first slot (offset) and, per chunk, the slot its first particle of the cell takes.
     Kokkos::parallel_scan(
@@ -105,8 +107,8 @@ class CellOrder {
         });
     Kokkos::parallel_for(
         "cell_order_place", Kokkos::RangePolicy<ExecutionSpace>(0, chunks), KOKKOS_LAMBDA(const index_t t) {
-          for (index_t p = chunk_begin(num_particles, chunks, t); p < chunk_begin(num_particles, chunks, t + 1); ++p)
-            particle(start(particle_cell(p), t)++) = p;
+          const index_t begin = chunk_begin(num_particles, chunks, t), end = chunk_begin(num_particles, chunks, t + 1);
+          for (index_t p = begin; p < end; ++p) particle(start(particle_cell(p), t)++) = p;
         });
   }
 
