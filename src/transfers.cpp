@@ -595,8 +595,7 @@ class Transfers final : public TransferKernels {
     p2c("p2c_relaxation_sums", pt.cell, accumulation_.traversal(pt), accumulation_.state(), relaxation_volume,
         RelaxationSums{pt.mass, pt.density, pt.specific_energy, k.gamma});
     p2g_end(accumulation_.state(), sums);
-    Kokkos::parallel_for("cell_relaxation", Kokkos::RangePolicy<ExecutionSpace>(0, geometry_.num_cells()),
-                         CellRelaxation{sums, k.gamma, dt / k.cell_size});
+    for_each_index_in_lanes("cell_relaxation", geometry_.num_cells(), CellRelaxation{sums, k.gamma, dt / k.cell_size});
     for_each_particle("cell_pressure_relaxation", pt.count,
                       RelaxCellPressureAndLocate{pt.density, pt.specific_energy, pt.position_x, pt.position_y,
                                                  pt.cell, sums, k.gamma, locate});
