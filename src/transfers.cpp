@@ -407,6 +407,19 @@ class ScatterAccumulation {
   Access& state() { return state_; }
   // Step 8, the remap into the momentum columns (its column 0: momentum_x).
   Access& momentum() { return momentum_; }
+  // Its sum into the momentum columns, which hold zeros (reset_momentum): duplicated, the second
+  // copy added into the first, which is then copied over them. (Kokkos' contribute_into adds the
+  // two copies one after the other into the columns, each element's second addition waiting on its
+  // first: 0.36 ms a step, against 0.21 ms for the state's seven columns.) The same sums, 0 + a + b
+  // = a + b.
+  void end_momentum(const NodeFieldsView& zeroed_momentum) {
+    if constexpr (duplicated) {
+      momentum_.contribute_into(momentum_.subview());
+      Kokkos::deep_copy(zeroed_momentum, momentum_.subview());
+    } else {
+      p2g_end(momentum_, zeroed_momentum);
+    }
+  }
   Access& cells() { return cells_; }
   // An accumulator into another View (the output projection), made for the occasion.
   Access into(const NodeFieldsView& target) const { return Access(target); }
@@ -453,6 +466,7 @@ class ColouredAccumulation {
   const ColouredCells& traversal(const ParticleState&) const { return cells_; }
   Access& state() { return state_; }
   Access& momentum() { return momentum_; }
+  void end_momentum(const NodeFieldsView&) {}  // written in place
   Access& cells() { return cell_sums_; }
   Access into(const NodeFieldsView& target) const { return Access{target}; }
   P2GStrategy strategy() const { return P2GStrategy::sorted; }
@@ -521,7 +535,7 @@ class Transfers final : public TransferKernels {
                  NodeColumns<2>{fields_.per_unit_mass, GridFields::acceleration_x},
                  AccelerateThenCarryMomentum{Accelerate{pt.velocity_x, pt.velocity_y, dt}, pt.mass},
                  accumulation_.momentum(), 0);
-    p2g_end(accumulation_.momentum(), momentum);
+    accumulation_.end_momentum(momentum);
   }
 
   void g2p_velocity_acceleration(const ParticleState& pt, real_t dt) override {
@@ -535,7 +549,7 @@ class Transfers final : public TransferKernels {
     p2g_begin(accumulation_.momentum(), momentum);
     p2g("p2g_momentum_remap", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
         accumulation_.momentum(), 0, Momentum{pt.mass, pt.velocity_x, pt.velocity_y});
-    p2g_end(accumulation_.momentum(), momentum);
+    accumulation_.end_momentum(momentum);
   }
 
   void g2pd_particle_update(const ParticleState& pt, const ThermodynamicConstants& k, real_t dt) override {
