@@ -225,12 +225,10 @@ namespace {
 // reach is tested as vector lanes (two loads and eight comparisons a particle), then the rules run
 // for those alone; Kokkos' loop over the particles one by one stayed scalar and branched on every
 // particle. Elsewhere (GPUs) one particle per thread.
-constexpr int rules_block_size = 32;
-template <class Rule>
+template <int L, class Rule>
 KOKKOS_FORCEINLINE_FUNCTION void apply_rules_in_block(const ParticleBoundaries& rules, const real_t* x,
                                                       const real_t* y, index_t first, int count, const Rule& rule,
                                                       double& sum) {
-  constexpr int L = rules_block_size;
   real_t reached[L];  // 1 where a rule may apply (a real: GCC vectorises a select on reals)
   MPMFLOW_VECTORISE
   for (int l = 0; l < count; ++l) reached[l] = rules.leaves_alone(x[first + l], y[first + l]) ? real_t(0) : real_t(1);
@@ -240,15 +238,15 @@ KOKKOS_FORCEINLINE_FUNCTION void apply_rules_in_block(const ParticleBoundaries& 
 template <class Rule>
 double sum_over_particles_in_blocks(const char* label, const ParticleBoundaries& rules, const ParticleState& pt,
                                     const Rule& rule) {
-  constexpr int L = rules_block_size;
+  constexpr int L = 32;
   const index_t n = pt.count;
   const RealView x = pt.position_x, y = pt.position_y;
   double sum = 0;
   Kokkos::parallel_reduce(
       label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L),
       KOKKOS_LAMBDA(const index_t k, double& partial) {
-        apply_rules_in_block(rules, x.data(), y.data(), k * L, n - k * L < L ? static_cast<int>(n - k * L) : L, rule,
-                             partial);
+        apply_rules_in_block<L>(rules, x.data(), y.data(), k * L, n - k * L < L ? static_cast<int>(n - k * L) : L,
+                                rule, partial);
       },
       sum);
   return sum;
