@@ -12,11 +12,6 @@
 
 namespace mpmflow {
 
-// The first particle of part k of `parts` consecutive ranges that split [first, first + n).
-KOKKOS_INLINE_FUNCTION index_t part_begin(index_t first, index_t n, index_t parts, index_t k) {
-  return first + static_cast<index_t>((static_cast<long long>(n) * k) / parts);
-}
-
 // Indices p in [first, last) with keep(p) true, in increasing order: counted, then listed. Where the
 // particles are in host memory, each of `parts` consecutive ranges (a thread's) counts its own, then
 // lists them from its offset: Kokkos' parallel_scan on CPUs would evaluate the predicate twice
@@ -46,9 +41,9 @@ IndexView select_indices_in_parts(const char* label, index_t first, index_t last
   index_t* const part_offset = offsets.data();
   Kokkos::parallel_for(
       label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
-        // (The bounds in locals: the loop's stores might alias the captured values, and part_begin
-        // divides.)
-        const index_t begin = part_begin(first, n, parts, k), end = part_begin(first, n, parts, k + 1);
+        // (The bounds in locals: the loop's stores might alias the captured values, and
+        // range_part_begin divides.)
+        const index_t begin = first + range_part_begin(n, parts, k), end = first + range_part_begin(n, parts, k + 1);
         index_t count = 0;
         for (index_t p = begin; p < end; ++p) count += keep(p) ? 1 : 0;
         part_offset[k + 1] = count;
@@ -58,7 +53,7 @@ IndexView select_indices_in_parts(const char* label, index_t first, index_t last
   if (offsets[parts] == 0) return selected;
   Kokkos::parallel_for(
       label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
-        const index_t begin = part_begin(first, n, parts, k), end = part_begin(first, n, parts, k + 1);
+        const index_t begin = first + range_part_begin(n, parts, k), end = first + range_part_begin(n, parts, k + 1);
         index_t* out = selected.data() + part_offset[k];
         for (index_t p = begin; p < end; ++p)
           if (keep(p)) *out++ = p;
@@ -117,9 +112,9 @@ IndexView select_indices_in_parts(const char* label, index_t first, index_t last
     const index_t part_size = static_cast<index_t>(selected.extent(0)) / parts;
     Kokkos::parallel_for(
         label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
-          // (The bounds in locals: the loop's stores might alias the captured values, and part_begin
-          // divides.)
-          const index_t begin = part_begin(first, n, parts, k), end = part_begin(first, n, parts, k + 1);
+          // (The bounds in locals: the loop's stores might alias the captured values, and
+          // range_part_begin divides.)
+          const index_t begin = first + range_part_begin(n, parts, k), end = first + range_part_begin(n, parts, k + 1);
           index_t* const out = selected.data() + part_size * k;
           index_t count = 0;
           for (index_t p = begin; p < end; ++p)

@@ -70,11 +70,6 @@ class CellOrder {
            (particle_.span() + cell_offset_.span() + cell_count_.span() + chunk_start_.span()) * sizeof(index_t);
   }
 
-  // The first particle of chunk t of `chunks` over n particles.
-  KOKKOS_INLINE_FUNCTION static index_t chunk_begin(index_t n, index_t chunks, index_t t) {
-    return static_cast<index_t>((static_cast<std::int64_t>(n) * t) / chunks);
-  }
-
   // (Public for nvcc, which allows device lambdas only in public member functions.)
   void build_by_counting(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
     // One chunk per thread, at most 32: the counters take 4 B per cell and chunk.
@@ -88,7 +83,8 @@ class CellOrder {
         "cell_order_count", Kokkos::RangePolicy<ExecutionSpace>(0, chunks), KOKKOS_LAMBDA(const index_t t) {
           // (The bounds in locals: in the loop's condition, the division ran for every particle,
           // since the loop's stores might alias what it reads them from.)
-          const index_t begin = chunk_begin(num_particles, chunks, t), end = chunk_begin(num_particles, chunks, t + 1);
+          const index_t begin = range_part_begin(num_particles, chunks, t);
+          const index_t end = range_part_begin(num_particles, chunks, t + 1);
           for (index_t p = begin; p < end; ++p) ++start(particle_cell(p), t);
         });
     // Each cell's first slot (offset) and, per chunk, the slot its first particle of the cell takes.
@@ -107,7 +103,8 @@ class CellOrder {
         });
     Kokkos::parallel_for(
         "cell_order_place", Kokkos::RangePolicy<ExecutionSpace>(0, chunks), KOKKOS_LAMBDA(const index_t t) {
-          const index_t begin = chunk_begin(num_particles, chunks, t), end = chunk_begin(num_particles, chunks, t + 1);
+          const index_t begin = range_part_begin(num_particles, chunks, t);
+          const index_t end = range_part_begin(num_particles, chunks, t + 1);
           for (index_t p = begin; p < end; ++p) particle(start(particle_cell(p), t)++) = p;
         });
   }

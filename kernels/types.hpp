@@ -38,4 +38,10 @@ using ParticleIdView = Kokkos::View<particle_id_t*, Kokkos::LayoutLeft, DeviceTy
 // Several node fields side by side: (node, component), each component column contiguous.
 using NodeFieldsView = Kokkos::View<real_t**, Kokkos::LayoutLeft, DeviceType>;
 
+// The first index of part k of `parts` consecutive, nearly equal parts of [0, n): a thread's share
+// of the particles where each thread walks its own range (the cell order's chunks, the selections').
+KOKKOS_INLINE_FUNCTION index_t range_part_begin(index_t n, index_t parts, index_t k) {
+  return static_cast<index_t>((static_cast<std::int64_t>(n) * k) / parts);
+}
+
 }  // namespace mpmflow
