@@ -20,8 +20,10 @@ struct DomainBox {
   explicit DomainBox(const GridSlab& slab)
       : x_min(slab.domain_x_min), x_max(slab.domain_x_max), y_min(slab.domain_y_min), y_max(slab.domain_y_max) {}
 
+  // (| rather than ||: every comparison made, no branch, so that a loop of these tests can run as
+  // vector lanes; ParticleBoundaries::leaves_alone.)
   KOKKOS_INLINE_FUNCTION bool outside(real_t x, real_t y) const {
-    return x < x_min || x > x_max || y < y_min || y > y_max;
+    return (x < x_min) | (x > x_max) | (y < y_min) | (y > y_max);
   }
   // (x, y) moved onto the domain's closure: round-off must not leave a particle a hair outside.
   KOKKOS_INLINE_FUNCTION void clamp(real_t& x, real_t& y) const {
@@ -112,18 +114,16 @@ struct ParticleBoundaries {
   ParticleLocator locator() const { return {domain, grid}; }
   // Within the box of the cells an obstacle may reach into (ObstacleGrid): only there does a
   // particle look up its cell's flag (two divisions and a load).
+  // (The box is empty, min above max, where no cell is near an obstacle, as without obstacles, so
+  // no flag is tested; and & rather than &&, as in DomainBox::outside.)
   KOKKOS_INLINE_FUNCTION bool near_an_obstacle(real_t x, real_t y) const {
-    return has_obstacles && x >= near_x_min && x <= near_x_max && y >= near_y_min && y <= near_y_max;
+    return (x >= near_x_min) & (x <= near_x_max) & (y >= near_y_min) & (y <= near_y_max);
   }
   // Whether no rule applies to a particle at (x, y): within the domain and away from every
-  // obstacle (the common case). The same answers as !domain.outside(x, y) && !near_an_obstacle(x,
-  // y), with every comparison made (& and |, not && and ||) and no flag tested (the box is empty,
-  // min above max, where no cell is near an obstacle, as without obstacles): conditional loads of
-  // the bounds, or a test of a flag, keep a loop of these tests scalar.
+  // obstacle (the common case). Both tests make every comparison and test no flag: conditional
+  // loads of the bounds, or a test of a flag, keep a loop of these tests scalar.
   KOKKOS_INLINE_FUNCTION bool leaves_alone(real_t x, real_t y) const {
-    const bool outside = (x < domain.x_min) | (x > domain.x_max) | (y < domain.y_min) | (y > domain.y_max);
-    const bool near = (x >= near_x_min) & (x <= near_x_max) & (y >= near_y_min) & (y <= near_y_max);
-    return !outside & !near;
+    return !domain.outside(x, y) & !near_an_obstacle(x, y);
   }
   // Applies the rules above to moved particle p; where an obstacle takes its inward normal
   // velocity, returns true with the momentum it took (the particle's loss: the gas's impulse on the
