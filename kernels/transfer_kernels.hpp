@@ -743,24 +743,6 @@ struct G2PBody {
   }
 };
 
-// The node values of a batch's stencils (K x K nodes, node (a, b) at a + K b), lane by lane and
-// component by component, for interpolations run as vector lanes (InterpolatesInLanes): loaded
-// particle by particle (scalar loads: vector gathers cost more on CPUs), read for all lanes at once.
-template <int N, int K, int L>
-struct NodeValueLanes {
-  real_t value[N][K * K][L];
-  template <class StencilType, class NodeFunctor>
-  KOKKOS_FORCEINLINE_FUNCTION void load(const StencilType& s, const NodeFunctor& node_functor, int l) {
-    static_assert(StencilType::width == K, "the body's stencil width is the shape's");
-    for (int b = 0; b < K; ++b)
-      for (int a = 0; a < K; ++a) {
-        real_t node_value[N];
-        node_functor(s.node(a, b), node_value);
-        for (int c = 0; c < N; ++c) value[c][a + K * b][l] = node_value[c];
-      }
-  }
-};
-
 // G2P then P2G body: the interpolated value goes to update(p, value, out), and out is accumulated.
 template <class NodeFunctor, class ParticleUpdate, class Access>
 struct G2PThenP2GBody {
@@ -880,13 +862,19 @@ struct G2PAndG2PDBody {
   static constexpr bool interpolates_in_lanes = true;
   template <int L>
   struct Lanes {
-    NodeValueLanes<N, K, L> nodes;
+    real_t node_value[N][K * K][L];  // node (a, b) of lane l's stencil at a + K b, component by component
     real_t value[N][L];
     real_t gradient[N][2][L];
   };
   template <class StencilType, int L>
   KOKKOS_FORCEINLINE_FUNCTION void gather(const StencilType& s, Lanes<L>& lanes, int l) const {
-    lanes.nodes.load(s, node_functor, l);
+    static_assert(StencilType::width == K, "the body's stencil width is the shape's");
+    for (int b = 0; b < K; ++b)
+      for (int a = 0; a < K; ++a) {
+        real_t node_value[N];
+        node_functor(s.node(a, b), node_value);
+        for (int c = 0; c < N; ++c) lanes.node_value[c][a + K * b][l] = node_value[c];
+      }
   }
   template <class Batch, int L>
   KOKKOS_FORCEINLINE_FUNCTION void interpolate_lanes(const Batch& batch, int count, Lanes<L>& lanes) const {
@@ -899,8 +887,8 @@ struct G2PAndG2PDBody {
         for (int c = 0; c < N; ++c) row_w[c] = row_g[c] = 0;
         for (int a = 0; a < K; ++a)
           for (int c = 0; c < N; ++c) {
-            row_w[c] += batch.wx[a][l] * lanes.nodes.value[c][a + K * b][l];
-            row_g[c] += batch.gx[a][l] * lanes.nodes.value[c][a + K * b][l];
+            row_w[c] += batch.wx[a][l] * lanes.node_value[c][a + K * b][l];
+            row_g[c] += batch.gx[a][l] * lanes.node_value[c][a + K * b][l];
           }
         for (int c = 0; c < N; ++c) {
           value[c] += batch.wy[b][l] * row_w[c];
