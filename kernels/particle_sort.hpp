@@ -24,37 +24,40 @@ void permute_particle_field(const ViewType& view, const IndexView& permutation, 
   Kokkos::deep_copy(Kokkos::subview(view, std::make_pair(index_t(0), n)), copy);
 }
 
-// Particles grouped by cell, in increasing particle index within each cell: the same grouping
-// for any thread count (the coloured P2G and deterministic reordering depend on it).
+// A particle's bin for CellOrder: its cell, or the group of cells its cell belongs to (a map from
+// cell to bin: the coloured traversal's tiles on CPUs, kernels/transfer_kernels.hpp).
+struct CellBin {
+  IndexView cell;
+  KOKKOS_INLINE_FUNCTION index_t operator()(index_t p) const { return cell(p); }
+};
+struct GroupOfCellBin {
+  IndexView cell, bin_of_cell;
+  KOKKOS_INLINE_FUNCTION index_t operator()(index_t p) const { return bin_of_cell(cell(p)); }
+};
+
+// Particles grouped by cell (or by group of cells), in increasing particle index within each bin:
+// the same grouping for any thread count (the coloured P2G and deterministic reordering depend on
+// it).
 //  - In host memory (CPUs): a counting sort over chunks of consecutive particles, one per thread.
-//    Each chunk counts its particles per cell; a cell's particles from chunk t go after those of
+//    Each chunk counts its particles per bin; a bin's particles from chunk t go after those of
 //    the chunks before it; each chunk then places its particles in index order. Three passes over
-//    the cell map, and a counter per cell and chunk (at most 32 chunks).
+//    the cell map, and a counter per bin and chunk (at most 32 chunks).
 //  - Elsewhere: Kokkos' BinSort places particles in their bins with atomic counters, in an order
-//    that depends on thread timing; sorting within bins by the unique key (cell, particle index)
-//    makes the result unique. The particles per cell are counted with a ScatterView (integer sums:
+//    that depends on thread timing; sorting within bins by the unique key (bin, particle index)
+//    makes the result unique. The particles per bin are counted with a ScatterView (integer sums:
 //    exact in any order).
 class CellOrder {
  public:
   using KeyView = Kokkos::View<std::int64_t*, DeviceType>;
   static constexpr bool counting_sort = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
 
+  // By cell.
   void build(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
-    // Grown with an eighth to spare, as the particle Views are (a run whose particle count grows a
-    // little every step, through inflow and splitting, reallocated it every step), and left
-    // unfilled: the build writes every entry it uses.
-    if (static_cast<index_t>(particle_.extent(0)) < num_particles) {
-      const index_t capacity = num_particles + num_particles / 8;
-      particle_ = IndexView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_particle"), capacity);
-      if (!counting_sort) keys_ = KeyView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_keys"), capacity);
-    }
-    if (static_cast<index_t>(cell_offset_.extent(0)) != num_cells + 1) {
-      cell_offset_ = IndexView("cell_order_offset", num_cells + 1);
-      cell_count_ = IndexView("cell_order_count", counting_sort ? 0 : num_cells);
-    }
-    if constexpr (counting_sort) build_by_counting(particle_cell, num_particles, num_cells);
-    else build_by_bin_sort(particle_cell, num_particles, num_cells);
-    num_particles_ = num_particles;
+    build_bins(CellBin{particle_cell}, num_particles, num_cells);
+  }
+  // By group of cells: bin_of_cell(c) in [0, num_bins) is cell c's.
+  void build(const IndexView& particle_cell, index_t num_particles, const IndexView& bin_of_cell, index_t num_bins) {
+    build_bins(GroupOfCellBin{particle_cell, bin_of_cell}, num_particles, num_bins);
   }
 
   // Reorders particle Views into the grouped order (deterministic Algorithm 1 step xii).
@@ -63,21 +66,42 @@ class CellOrder {
     permute_particle_field(view, particle_, num_particles_);
   }
 
-  const IndexView& cell_offset() const { return cell_offset_; }
+  // The particles of bin b are particle(bin_offset(b)) .. particle(bin_offset(b + 1) - 1).
+  const IndexView& bin_offset() const { return bin_offset_; }
   const IndexView& particle() const { return particle_; }
   size_t bytes() const {
     return keys_.span() * sizeof(std::int64_t) +
-           (particle_.span() + cell_offset_.span() + cell_count_.span() + chunk_start_.span()) * sizeof(index_t);
+           (particle_.span() + bin_offset_.span() + bin_count_.span() + chunk_start_.span()) * sizeof(index_t);
   }
 
   // (Public for nvcc, which allows device lambdas only in public member functions.)
-  void build_by_counting(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
-    // One chunk per thread, at most 32: the counters take 4 B per cell and chunk.
+  template <class BinOf>
+  void build_bins(const BinOf& bin_of, index_t num_particles, index_t num_bins) {
+    // Grown with an eighth to spare, as the particle Views are (a run whose particle count grows a
+    // little every step, through inflow and splitting, reallocated it every step), and left
+    // unfilled: the build writes every entry it uses.
+    if (static_cast<index_t>(particle_.extent(0)) < num_particles) {
+      const index_t capacity = num_particles + num_particles / 8;
+      particle_ = IndexView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_particle"), capacity);
+      if (!counting_sort) keys_ = KeyView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_keys"), capacity);
+    }
+    if (static_cast<index_t>(bin_offset_.extent(0)) != num_bins + 1) {
+      bin_offset_ = IndexView("cell_order_offset", num_bins + 1);
+      bin_count_ = IndexView("cell_order_count", counting_sort ? 0 : num_bins);
+    }
+    if constexpr (counting_sort) build_by_counting(bin_of, num_particles, num_bins);
+    else build_by_bin_sort(bin_of, num_particles, num_bins);
+    num_particles_ = num_particles;
+  }
+
+  template <class BinOf>
+  void build_by_counting(const BinOf& bin_of, index_t num_particles, index_t num_bins) {
+    // One chunk per thread, at most 32: the counters take 4 B per bin and chunk.
     const index_t chunks = ExecutionSpace().concurrency() < 32 ? ExecutionSpace().concurrency() : 32;
-    if (chunk_start_.extent(0) != static_cast<size_t>(num_cells) || chunk_start_.extent(1) != static_cast<size_t>(chunks))
-      chunk_start_ = Kokkos::View<index_t**, Kokkos::LayoutRight, DeviceType>("cell_order_chunk_start", num_cells, chunks);
+    if (chunk_start_.extent(0) != static_cast<size_t>(num_bins) || chunk_start_.extent(1) != static_cast<size_t>(chunks))
+      chunk_start_ = Kokkos::View<index_t**, Kokkos::LayoutRight, DeviceType>("cell_order_chunk_start", num_bins, chunks);
     const auto start = chunk_start_;
-    const IndexView particle = particle_, offset = cell_offset_;
+    const IndexView particle = particle_, offset = bin_offset_;
     Kokkos::deep_copy(start, 0);
     Kokkos::parallel_for(
         "cell_order_count", Kokkos::RangePolicy<ExecutionSpace>(0, chunks), KOKKOS_LAMBDA(const index_t t) {
@@ -85,14 +109,14 @@ class CellOrder {
           // since the loop's stores might alias what it reads them from.)
           const index_t begin = range_part_begin(num_particles, chunks, t);
           const index_t end = range_part_begin(num_particles, chunks, t + 1);
-          for (index_t p = begin; p < end; ++p) ++start(particle_cell(p), t);
+          for (index_t p = begin; p < end; ++p) ++start(bin_of(p), t);
         });
-    // Each cell's first slot (offset) and, per chunk, the slot its first particle of the cell takes.
+    // Each bin's first slot (offset) and, per chunk, the slot its first particle of the bin takes.
     Kokkos::parallel_scan(
-        "cell_order_offsets", Kokkos::RangePolicy<ExecutionSpace>(0, num_cells + 1),
+        "cell_order_offsets", Kokkos::RangePolicy<ExecutionSpace>(0, num_bins + 1),
         KOKKOS_LAMBDA(const index_t c, index_t& running, const bool final) {
           if (final) offset(c) = running;
-          if (c == num_cells) return;
+          if (c == num_bins) return;
           index_t slot = running;
           for (index_t t = 0; t < chunks; ++t) {
             const index_t count = start(c, t);
@@ -105,30 +129,32 @@ class CellOrder {
         "cell_order_place", Kokkos::RangePolicy<ExecutionSpace>(0, chunks), KOKKOS_LAMBDA(const index_t t) {
           const index_t begin = range_part_begin(num_particles, chunks, t);
           const index_t end = range_part_begin(num_particles, chunks, t + 1);
-          for (index_t p = begin; p < end; ++p) particle(start(particle_cell(p), t)++) = p;
+          for (index_t p = begin; p < end; ++p) particle(start(bin_of(p), t)++) = p;
         });
   }
 
-  void build_by_bin_sort(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
+  template <class BinOf>
+  void build_by_bin_sort(const BinOf& bin_of, index_t num_particles, index_t num_bins) {
     const KeyView keys = keys_;
-    const IndexView particle = particle_, offset = cell_offset_, count = cell_count_;
+    const IndexView particle = particle_, offset = bin_offset_, count = bin_count_;
     const std::int64_t n = num_particles > 0 ? num_particles : 1;
     Kokkos::deep_copy(count, 0);
     {
       Kokkos::Experimental::ScatterView<index_t*, Kokkos::LayoutLeft, DeviceType> scatter(count);
       Kokkos::parallel_for(
           "cell_order_keys", Kokkos::RangePolicy<ExecutionSpace>(0, num_particles), KOKKOS_LAMBDA(const index_t p) {
-            keys(p) = static_cast<std::int64_t>(particle_cell(p)) * n + p;
+            const index_t bin = bin_of(p);
+            keys(p) = static_cast<std::int64_t>(bin) * n + p;
             auto access = scatter.access();
-            access(particle_cell(p)) += 1;
+            access(bin) += 1;
           });
       scatter.contribute_into(count);
     }
     if (num_particles > 0) {
-      // Keys below num_cells * n < 2^53 (checked by the caller's sizes), so the bin arithmetic,
+      // Keys below num_bins * n < 2^53 (checked by the caller's sizes), so the bin arithmetic,
       // done in double, is monotone in the key: bins in key order, sorted within.
       using BinOp = Kokkos::BinOp1D<KeyView>;
-      Kokkos::BinSort<KeyView, BinOp> sorter(keys, 0, num_particles, BinOp(num_cells, 0, std::int64_t(num_cells) * n),
+      Kokkos::BinSort<KeyView, BinOp> sorter(keys, 0, num_particles, BinOp(num_bins, 0, std::int64_t(num_bins) * n),
                                              /*sort_within_bins=*/true);
       sorter.create_permute_vector();
       const auto permutation = sorter.get_permute_vector();
@@ -137,17 +163,17 @@ class CellOrder {
           KOKKOS_LAMBDA(const index_t k) { particle(k) = static_cast<index_t>(permutation(k)); });
     }
     Kokkos::parallel_scan(
-        "cell_order_offsets", Kokkos::RangePolicy<ExecutionSpace>(0, num_cells + 1),
+        "cell_order_offsets", Kokkos::RangePolicy<ExecutionSpace>(0, num_bins + 1),
         KOKKOS_LAMBDA(const index_t c, index_t& running, const bool final) {
           if (final) offset(c) = running;
-          if (c < num_cells) running += count(c);
+          if (c < num_bins) running += count(c);
         });
   }
 
  private:
   KeyView keys_;  // (BinSort)
-  IndexView particle_, cell_offset_, cell_count_;
-  // (Counting sort) per cell and chunk: its particles of the cell, then the next slot they take.
+  IndexView particle_, bin_offset_, bin_count_;
+  // (Counting sort) per bin and chunk: its particles of the bin, then the next slot they take.
   Kokkos::View<index_t**, Kokkos::LayoutRight, DeviceType> chunk_start_;
   index_t num_particles_ = 0;
 };

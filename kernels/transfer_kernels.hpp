@@ -20,12 +20,12 @@
 //  - all particles at once (a particle count, or ParticleBatches) through a Kokkos ScatterView,
 //    duplicated or atomic: the ScatterView decides how concurrent contributions to one node are
 //    combined;
-//  - tile colour by tile colour (ColouredCells) straight into the View (DirectNodeAccess): the
-//    tiles of cells of one colour are far enough apart that no two touch a common node, so each
-//    node is written by one thread at a time, in an order fixed by the tiles and the cell order of
-//    the particles. Bitwise the same result for any thread count.
+//  - tile colour by tile colour (ColouredTiles on CPUs, ColouredCells on GPUs) straight into the
+//    View (DirectNodeAccess): the tiles of cells of one colour are far enough apart that no two
+//    touch a common node, so each node is written by one thread at a time, in an order fixed by
+//    the tiles and the particles' grouping alone. Bitwise the same result for any thread count.
 // The traversal also decides how the stencils are computed: a particle count is the reference
-// path, one particle per thread, as the paper's kernels; ParticleBatches and ColouredCells compute
+// path, one particle per thread, as the paper's kernels; ParticleBatches and ColouredTiles compute
 // the stencils of batches of particles together in vector lanes on CPUs (Shape::fill_batch), the
 // solver's path, tested against the reference.
 #include <type_traits>
@@ -74,16 +74,27 @@ void p2g_end(ScatterViewType& scatter, const NodeFieldsView& target) {
   scatter.contribute_into(target);
 }
 
-// Particles grouped by cell for the coloured traversal (kernels/particle_sort.hpp builds it):
-// the particles of local cell c are particle(cell_offset(c)) .. particle(cell_offset(c + 1) - 1).
+// Particles grouped by cell for the coloured traversal with a team of threads per tile (the GPU
+// path; CellOrder in kernels/particle_sort.hpp builds it): the particles of local cell c are
+// particle(cell_offset(c)) .. particle(cell_offset(c + 1) - 1).
 struct ColouredCells {
   IndexView cell_offset;
   IndexView particle;
   index_t cells_x = 0, cells_y = 0;
-  // A team of threads per tile (for_each_particle_stencil below): the GPU path. One thread per
-  // tile, with batched stencils, where the particles are in host memory.
-  bool teams = !std::is_same<MemorySpace, Kokkos::HostSpace>::value;
   int team_size = 0;  // threads per team; 0: Kokkos chooses (the tests ask for 2 on CPUs)
+};
+
+// Particles grouped by tile (the coloured traversal's tiles, below, numbered row of tiles by row
+// of tiles: tile_of_each_cell), in increasing index within each tile, for the coloured traversal
+// with a thread per tile (the CPU path; CellOrder builds it with the map from cell to tile): the
+// particles of tile t are particle(tile_offset(t)) .. particle(tile_offset(t + 1) - 1). Particles
+// reordered by cell lie in long runs of consecutive indices within a tile (each a row of the
+// tile), and stay in them as they move among the tile's cells: the walk takes such a run's
+// batches as consecutive particles, whose loads and updates run as vector lanes.
+struct ColouredTiles {
+  IndexView tile_offset;
+  IndexView particle;
+  index_t cells_x = 0, cells_y = 0;
 };
 
 // All particles, for the fast traversal (for_each_particle_stencil below): batched stencils on
@@ -301,32 +312,50 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 
 // The same, tile by tile: the cells are grouped in tiles of colour_tile_x x colour_tile_y cells
 // and the tiles in four colours (2 x 2); the tiles of one colour run in parallel, one thread per
-// tile walking its cells row by row and each cell's particles in order (walk_tiles), or one team
-// per tile (walk_tiles_in_teams, the GPU path). A particle of cell
+// tile walking its particles in index order (walk_tiles, ColouredTiles), or one team per tile
+// (walk_tiles_in_teams, ColouredCells: the GPU path). A particle of cell
 // (ci, cj) reaches nodes ci - r + 1 .. ci + r (r = Shape::colour_period / 2), so two tiles of one
 // colour, a tile apart, share no node when the tile is wider and taller than 2 r - 2 cells. Every
-// node's sum so comes in an order fixed by the cells and the particle order alone: the same bits
-// for any thread count. Tiles wide along x, where the cell order runs: a tile's row is a long
+// node's sum so comes in an order fixed by the tiles and the particles' grouping alone: the same
+// bits for any thread count. Tiles wide along x, where the cell order runs: a tile's row is a long
 // stretch of consecutive particles (once reordered by cell), and 4 passes over the grid instead
-// of colour_period^2 for single cells. On CPUs the stencils of a row's particles are computed in
+// of colour_period^2 for single cells. On CPUs the stencils of a tile's particles are computed in
 // batches, as for ParticleBatches.
 constexpr int colour_tile_x = 64;
 constexpr int colour_tile_y = 4;
 
+// Tiles of cells_x x cells_y cells along x and y.
+KOKKOS_INLINE_FUNCTION index_t tiles_along_x(index_t cells_x) { return (cells_x + colour_tile_x - 1) / colour_tile_x; }
+KOKKOS_INLINE_FUNCTION index_t tiles_along_y(index_t cells_y) { return (cells_y + colour_tile_y - 1) / colour_tile_y; }
+
+// Each cell's tile, tiles numbered row of tiles by row of tiles (ColouredTiles' grouping).
+inline IndexView tile_of_each_cell(index_t cells_x, index_t cells_y) {
+  IndexView tile(Kokkos::view_alloc(Kokkos::WithoutInitializing, "tile_of_cell"), cells_x * cells_y);
+  const index_t tiles_x = tiles_along_x(cells_x);
+  Kokkos::parallel_for(
+      "tile_of_cell", Kokkos::RangePolicy<ExecutionSpace>(0, cells_x * cells_y), KOKKOS_LAMBDA(const index_t c) {
+        const index_t cj = c / cells_x, ci = c - cj * cells_x;
+        tile(c) = ci / colour_tile_x + tiles_x * (cj / colour_tile_y);
+      });
+  return tile;
+}
+
 // The tiles of one of the four colours: colour (a, b) holds tiles (a + 2 i, b + 2 j), `columns`
-// of them per row, `rows` rows; its k-th tile and that tile's cells.
+// of them per row, `rows` rows; its k-th tile, that tile's number and its cells.
 struct TileColour {
   index_t a = 0, b = 0, columns = 0, rows = 0;
-  index_t cells_x = 0, cells_y = 0;
+  index_t cells_x = 0, cells_y = 0, tiles_x = 0;
 
-  TileColour(const ColouredCells& cells, int colour)
-      : a(colour % 2), b(colour / 2), cells_x(cells.cells_x), cells_y(cells.cells_y) {
-    const index_t tiles_x = (cells_x + colour_tile_x - 1) / colour_tile_x;
-    const index_t tiles_y = (cells_y + colour_tile_y - 1) / colour_tile_y;
+  TileColour(index_t cells_x_, index_t cells_y_, int colour)
+      : a(colour % 2), b(colour / 2), cells_x(cells_x_), cells_y(cells_y_), tiles_x(tiles_along_x(cells_x_)) {
+    const index_t tiles_y = tiles_along_y(cells_y);
     columns = (tiles_x - a + 1) / 2 > 0 ? (tiles_x - a + 1) / 2 : 0;
     rows = (tiles_y - b + 1) / 2 > 0 ? (tiles_y - b + 1) / 2 : 0;
   }
   index_t tiles() const { return columns * rows; }
+  KOKKOS_INLINE_FUNCTION index_t tile_number(index_t k) const {
+    return a + 2 * (k % columns) + tiles_x * (b + 2 * (k / columns));
+  }
   // The cells [ci_begin, ci_end) x [cj_begin, cj_end) of tile k.
   KOKKOS_INLINE_FUNCTION void cells_of_tile(index_t k, index_t& ci_begin, index_t& ci_end, index_t& cj_begin,
                                             index_t& cj_end) const {
@@ -337,42 +366,42 @@ struct TileColour {
   }
 };
 
-// One thread per tile (the CPU path, cells.teams false).
+// One thread per tile (the CPU path): the tile's particles in index order, in batches of
+// stencil_batch_size; a batch of consecutive particles (the list strictly increases, so its last
+// is its first + count - 1) as such, another as listed particles. Which way a batch goes depends
+// on the grouping alone, not on the threads.
 template <class Shape, class Body>
 void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& particles,
-                const ColouredCells& cells, const Body& body) {
+                const ColouredTiles& tiled, const Body& body) {
   const auto x = particles.x;
   const auto y = particles.y;
   const auto cell = particles.cell;
   const index_t row_stride = shape.grid.geometry.nodes_x;
-  const index_t cells_x = cells.cells_x;
-  const IndexView offset = cells.cell_offset, order = cells.particle;
+  const IndexView offset = tiled.tile_offset, order = tiled.particle;
   // (A plain `if` on it below: nvcc allows no `if constexpr` around what a device lambda captures.)
   constexpr bool batched = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
   for (int colour = 0; colour < 4; ++colour) {
-    const TileColour tiles(cells, colour);
+    const TileColour tiles(tiled.cells_x, tiled.cells_y, colour);
     if (tiles.tiles() == 0) continue;
     Kokkos::parallel_for(
         label, Kokkos::RangePolicy<ExecutionSpace>(0, tiles.tiles()), KOKKOS_LAMBDA(const index_t k) {
-          index_t ci_begin, ci_end, cj_begin, cj_end;
-          tiles.cells_of_tile(k, ci_begin, ci_end, cj_begin, cj_end);
-          // The tile's cells row by row: the particles of one row of the tile are consecutive in
-          // the cell order.
-          for (index_t cj = cj_begin; cj < cj_end; ++cj) {
-            const index_t row_begin = offset(ci_begin + cells_x * cj);
-            const index_t row_end = offset(ci_end + cells_x * cj);
-            if (batched) {
-              constexpr int L = stencil_batch_size;
-              for (index_t s = row_begin; s < row_end; s += L) {
-                const int count = row_end - s < L ? static_cast<int>(row_end - s) : L;
+          const index_t t = tiles.tile_number(k);
+          const index_t begin = offset(t), end = offset(t + 1);
+          if (batched) {
+            constexpr int L = stencil_batch_size;
+            for (index_t s = begin; s < end; s += L) {
+              const int count = end - s < L ? static_cast<int>(end - s) : L;
+              if (order(s + count - 1) - order(s) == count - 1)
+                run_batch<L>(shape, body, ConsecutiveParticles{order(s)}, count, cell.data(), x.data(), y.data(),
+                             row_stride);
+              else
                 run_batch<L>(shape, body, ListedParticles{order.data() + s}, count, cell.data(), x.data(),
                              y.data(), row_stride);
-              }
-            } else {
-              for (index_t s = row_begin; s < row_end; ++s) {
-                const index_t p = order(s);
-                body(p, shape(p, cell(p), x(p), y(p)));
-              }
+            }
+          } else {
+            for (index_t s = begin; s < end; ++s) {
+              const index_t p = order(s);
+              body(p, shape(p, cell(p), x(p), y(p)));
             }
           }
         });
@@ -459,14 +488,14 @@ struct TeamTile {
   }
 };
 
-// A team of threads per tile (the GPU path, cells.teams true): TeamTile.
+// A team of threads per tile (the GPU path): TeamTile.
 template <class Shape, class Body>
 void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLocations& particles,
                          const ColouredCells& cells, const Body& body) {
   int components = 0;
   if constexpr (TeamTile<Shape, Body>::staged) components = static_cast<int>(body.scatter.target.extent(1));
   for (int colour = 0; colour < 4; ++colour) {
-    const TileColour tiles(cells, colour);
+    const TileColour tiles(cells.cells_x, cells.cells_y, colour);
     if (tiles.tiles() == 0) continue;
     const TeamTile<Shape, Body> tile{shape,
                                      particles.x,
@@ -491,15 +520,20 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
                                const ColouredCells& cells, const Body& body) {
   static_assert(colour_tile_x > Shape::colour_period - 2 && colour_tile_y > Shape::colour_period - 2,
                 "tiles of one colour must not share a node");
-  if (cells.teams)
-    walk_tiles_in_teams(label, shape, particles, cells, body);
-  else
-    walk_tiles(label, shape, particles, cells, body);
+  walk_tiles_in_teams(label, shape, particles, cells, body);
+}
+template <class Shape, class Body>
+void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
+                               const ColouredTiles& tiles, const Body& body) {
+  static_assert(colour_tile_x > Shape::colour_period - 2 && colour_tile_y > Shape::colour_period - 2,
+                "tiles of one colour must not share a node");
+  walk_tiles(label, shape, particles, tiles, body);
 }
 
-// Runs body(p) for every particle p, without a stencil: all particles at once, or (ColouredCells)
-// one thread per cell walking its particles in order, so that a body writing to its particle's
-// cell writes exclusively and in a fixed order (no colours needed: a particle touches one cell).
+// Runs body(p) for every particle p, without a stencil: all particles at once, or one thread per
+// cell (ColouredCells) or per tile (ColouredTiles) walking its particles in order, so that a body
+// writing to its particle's cell writes exclusively and in a fixed order (no colours needed: a
+// particle touches one cell).
 template <class Body>
 void for_each_particle(const char* label, index_t num_particles, const Body& body) {
   Kokkos::parallel_for(label, Kokkos::RangePolicy<ExecutionSpace>(0, num_particles), body);
@@ -514,6 +548,16 @@ void for_each_particle(const char* label, const ColouredCells& cells, const Body
   Kokkos::parallel_for(
       label, Kokkos::RangePolicy<ExecutionSpace>(0, cells.cells_x * cells.cells_y), KOKKOS_LAMBDA(const index_t c) {
         for (index_t s = offset(c); s < offset(c + 1); ++s) body(order(s));
+      });
+}
+template <class Body>
+void for_each_particle(const char* label, const ColouredTiles& tiles, const Body& body) {
+  const IndexView offset = tiles.tile_offset, order = tiles.particle;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, tiles_along_x(tiles.cells_x) * tiles_along_y(tiles.cells_y)),
+      KOKKOS_LAMBDA(const index_t t) {
+        const index_t begin = offset(t), end = offset(t + 1);
+        for (index_t s = begin; s < end; ++s) body(order(s));
       });
 }
 

@@ -450,32 +450,45 @@ class ScatterAccumulation {
   Access cells_;  // the per-cell sums of cell-averaged strain
 };
 
-// Sorted and coloured: the particles grouped by cell (CellOrder, rebuilt every step since the
-// particles move), then P2G tile colour by tile colour straight into the node fields. No copies, no
-// atomics, and the same sums in the same order for any thread count: bitwise reproducible.
+// Sorted and coloured: the particles grouped (CellOrder, rebuilt every step since the particles
+// move), then P2G tile colour by tile colour straight into the node fields. No copies, no atomics,
+// and the same sums in the same order for any thread count: bitwise reproducible. On CPUs grouped
+// by tile, in index order (ColouredTiles: a thread per tile, whose particles reordered by cell are
+// long runs of consecutive ones); on GPUs by cell (ColouredCells: a team per tile, a thread per
+// cell of a sub-colour).
 class ColouredAccumulation {
  public:
   using Access = DirectNodeAccess;
+  static constexpr bool by_tile = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
+  using Traversal = std::conditional_t<by_tile, ColouredTiles, ColouredCells>;
 
   ColouredAccumulation(GridFields& fields, const NodeFieldsView& cell_sums)
       : state_{fields.state}, momentum_{momentum_columns(fields.state)}, cell_sums_{cell_sums} {}
   void prepare(const ParticleState& particles, const GridGeometry& grid) {
-    order_.build(particles.cell, particles.count, grid.num_cells());
-    cells_ = {order_.cell_offset(), order_.particle(), grid.cells_x(), grid.cells_y()};
+    const index_t cells_x = grid.cells_x(), cells_y = grid.cells_y();
+    if constexpr (by_tile) {
+      if (static_cast<index_t>(tile_of_cell_.extent(0)) != cells_x * cells_y)
+        tile_of_cell_ = tile_of_each_cell(cells_x, cells_y);
+      order_.build(particles.cell, particles.count, tile_of_cell_, tiles_along_x(cells_x) * tiles_along_y(cells_y));
+    } else {
+      order_.build(particles.cell, particles.count, grid.num_cells());
+    }
+    traversal_ = {order_.bin_offset(), order_.particle(), cells_x, cells_y};
   }
-  const ColouredCells& traversal(const ParticleState&) const { return cells_; }
+  const Traversal& traversal(const ParticleState&) const { return traversal_; }
   Access& state() { return state_; }
   Access& momentum() { return momentum_; }
   void end_momentum(const NodeFieldsView&) {}  // written in place
   Access& cells() { return cell_sums_; }
   Access into(const NodeFieldsView& target) const { return Access{target}; }
   P2GStrategy strategy() const { return P2GStrategy::sorted; }
-  size_t extra_bytes() const { return order_.bytes(); }
+  size_t extra_bytes() const { return order_.bytes() + tile_of_cell_.span() * sizeof(index_t); }
 
  private:
   Access state_, momentum_, cell_sums_;
   CellOrder order_;
-  ColouredCells cells_;
+  IndexView tile_of_cell_;  // (by tile)
+  Traversal traversal_;
 };
 
 // ---- The transfers, specialised -----------------------------------------------------------------

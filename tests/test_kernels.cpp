@@ -205,24 +205,31 @@ using Dup = Kokkos::Experimental::ScatterDuplicated;
 using Atomic = Kokkos::Experimental::ScatterNonDuplicated;
 
 // The sorted, coloured P2G (no ScatterView): the third accumulation mode under test, one thread
-// per tile (the CPU path), or a team per tile (ColouredTeams: the GPU path, run here on the CPU).
+// per tile (Coloured: ColouredTiles, the CPU path), or a team per tile (ColouredTeams:
+// ColouredCells, the GPU path, run here on the CPU).
 struct Coloured {};
 struct ColouredTeams {};
 template <class D>
 constexpr bool is_coloured = std::is_same<D, Coloured>::value || std::is_same<D, ColouredTeams>::value;
 
-// The cell order of the particles `d` on `g`, and the coloured traversal of mode D over it.
+// The particles `d` on `g` grouped for the coloured traversal of mode D: by tile or by cell.
+template <class D>
 struct ColouredTraversal {
   CellOrder order;
-  ColouredCells cells;
-  template <class D>
+  IndexView tile_of_cell;
+  std::conditional_t<std::is_same<D, ColouredTeams>::value, ColouredCells, ColouredTiles> cells;
   static ColouredTraversal of(const GridGeometry& g, const DeviceParticles& d) {
     ColouredTraversal t;
-    t.order.build(d.where.cell, d.count, g.num_cells());
-    t.cells = ColouredCells{t.order.cell_offset(), t.order.particle(), g.cells_x(), g.cells_y()};
-    t.cells.teams = std::is_same<D, ColouredTeams>::value;
-    // Teams of as many threads as there are (up to 2): the sub-colours' exclusive writes under test.
-    t.cells.team_size = Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 2 : 1;
+    if constexpr (std::is_same<D, ColouredTeams>::value) {
+      t.order.build(d.where.cell, d.count, g.num_cells());
+      t.cells = ColouredCells{t.order.bin_offset(), t.order.particle(), g.cells_x(), g.cells_y()};
+      // Teams of as many threads as there are (up to 2): the sub-colours' exclusive writes under test.
+      t.cells.team_size = Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 2 : 1;
+    } else {
+      t.tile_of_cell = tile_of_each_cell(g.cells_x(), g.cells_y());
+      t.order.build(d.where.cell, d.count, t.tile_of_cell, tiles_along_x(g.cells_x()) * tiles_along_y(g.cells_y()));
+      t.cells = ColouredTiles{t.order.bin_offset(), t.order.particle(), g.cells_x(), g.cells_y()};
+    }
     return t;
   }
 };
@@ -247,7 +254,7 @@ template <class D, bool derivative, class Shape, class Functor>
 NodeFieldsView run_p2g(const Shape& shape, const DeviceParticles& d, int columns, const Functor& f) {
   NodeFieldsView fields("fields", shape.grid.geometry.num_nodes(), columns);
   if constexpr (is_coloured<D>) {
-    const ColouredTraversal t = ColouredTraversal::of<D>(shape.grid.geometry, d);
+    const auto t = ColouredTraversal<D>::of(shape.grid.geometry, d);
     DirectNodeAccess direct{fields};
     if constexpr (derivative) p2gd("test_p2gd", shape, d.where, t.cells, direct, 0, f);
     else p2g("test_p2g", shape, d.where, t.cells, direct, 0, f);
@@ -592,7 +599,7 @@ TYPED_TEST(TransferKernels, FusedG2PThenP2GEqualsTheTwoKernels) {
   NodeFieldsView fused("fused", g.num_nodes(), 1);
   const StoreValueAndWeighByMass update{fused_value, d.mass};
   if constexpr (is_coloured<typename TypeParam::Duplication>) {
-    const ColouredTraversal t = ColouredTraversal::of<typename TypeParam::Duplication>(g, d);
+    const auto t = ColouredTraversal<typename TypeParam::Duplication>::of(g, d);
     DirectNodeAccess direct{fused};
     g2p_then_p2g("test_fused", shape, d.where, t.cells, NodeColumn{nodal}, update, direct, 0);
   } else {
@@ -621,7 +628,7 @@ TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
   const DeviceParticles d = to_device(g, random_particles(g, 3000, 6));
   CellOrder order;
   order.build(d.where.cell, d.count, g.num_cells());
-  auto offset = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.cell_offset());
+  auto offset = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.bin_offset());
   auto particle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.particle());
   auto cell = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.cell);
   ASSERT_EQ(offset(g.num_cells()), d.count);
@@ -633,6 +640,79 @@ TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
       ++seen[particle(s)];
     }
   for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
+}
+
+// Grouped by tile (the coloured traversal's on CPUs): each tile's particles, those of its cells,
+// in index order; tiles numbered row of tiles by row of tiles. A grid of 3 x 3 tiles, the last
+// row and column of them partial.
+TEST(CellOrder, GroupsParticlesByTileInIndexOrder) {
+  GridGeometry g = test_grid();
+  g.nodes_x = 2 * colour_tile_x + 11;
+  g.nodes_y = 2 * colour_tile_y + 3;
+  const DeviceParticles d = to_device(g, random_particles(g, 5000, 9));
+  const index_t tiles_x = tiles_along_x(g.cells_x()), tiles = tiles_x * tiles_along_y(g.cells_y());
+  ASSERT_EQ(tiles, 9);
+  const IndexView tile_of_cell = tile_of_each_cell(g.cells_x(), g.cells_y());
+  CellOrder order;
+  order.build(d.where.cell, d.count, tile_of_cell, tiles);
+  auto offset = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.bin_offset());
+  auto particle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.particle());
+  auto cell = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.cell);
+  ASSERT_EQ(offset(tiles), d.count);
+  std::vector<int> seen(d.count, 0);
+  for (index_t t = 0; t < tiles; ++t) {
+    EXPECT_LT(offset(t), offset(t + 1)) << "tile " << t << " holds particles";
+    for (index_t s = offset(t); s < offset(t + 1); ++s) {
+      const index_t c = cell(particle(s)), ci = c % g.cells_x(), cj = c / g.cells_x();
+      EXPECT_EQ(ci / colour_tile_x + tiles_x * (cj / colour_tile_y), t) << "particle " << particle(s);
+      if (s > offset(t)) EXPECT_LT(particle(s - 1), particle(s));  // index order within the tile
+      ++seen[particle(s)];
+    }
+  }
+  for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
+}
+
+// The coloured traversal on CPUs takes a batch of consecutive particles as such and another as
+// listed: particles in cell order, every fifth of them then moved a cell row up (into the next
+// tile where it crosses a tile's edge), so that the tiles hold both. Either way the sums are the
+// reference traversal's, to round-off.
+template <class Make>
+void expect_coloured_runs_match_the_reference() {
+  GridGeometry g = test_grid();
+  g.nodes_y = 3 * colour_tile_y + 3;
+  HostParticles h = regular_particles(g, 3);
+  for (size_t k = 0; k < h.y.size(); k += 5)
+    if (h.y[k] + g.spacing_y < g.node_y(g.cells_y() - 1)) h.y[k] += g.spacing_y;
+  const DeviceParticles d = to_device(g, h);
+  const auto shape = Make::make(g, d.count);
+  const auto t = ColouredTraversal<Coloured>::of(g, d);
+  // Both kinds of batch, as walk_tiles makes them.
+  auto offset = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), t.cells.tile_offset);
+  auto particle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), t.cells.particle);
+  int consecutive = 0, listed = 0;
+  for (index_t tile = 0; tile + 1 < static_cast<index_t>(offset.extent(0)); ++tile)
+    for (index_t s = offset(tile); s < offset(tile + 1); s += stencil_batch_size) {
+      const index_t last = std::min<index_t>(s + stencil_batch_size, offset(tile + 1)) - 1;
+      ++(particle(last) - particle(s) == last - s ? consecutive : listed);
+    }
+  ASSERT_GT(consecutive, 0);
+  ASSERT_GT(listed, 0);
+  const MassAndLinearField f{d.mass, d.where.x, d.where.y};
+  const NodeFieldsView coloured = run_p2g<Coloured, false>(shape, d, 2, f);
+  const NodeFieldsView reference = run_p2g<Atomic, false>(shape, d, 2, f);
+  auto c = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), coloured);
+  auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
+  for (int k = 0; k < 2; ++k) {
+    double largest = 0;
+    for (int i = 0; i < g.num_nodes(); ++i) largest = std::max(largest, std::fabs(r(i, k)));
+    ASSERT_GT(largest, 0);
+    for (int i = 0; i < g.num_nodes(); ++i)
+      EXPECT_NEAR(c(i, k), r(i, k), 1e-13 * largest) << "node " << i << ", column " << k;
+  }
+}
+TEST(ColouredTiles, ConsecutiveAndListedBatchesGiveTheReferenceSums) {
+  expect_coloured_runs_match_the_reference<MakeLinear>();
+  expect_coloured_runs_match_the_reference<MakeGimp>();
 }
 
 // select_indices, with a buffer kept from call to call and without: the selected indices of
