@@ -205,10 +205,10 @@ KOKKOS_FORCEINLINE_FUNCTION void run_bodies(const Body& body, const Batch& batch
 // ... or the node reads particle by particle, then the particle updates. The node reads stay
 // scalar: GCC otherwise turns them into vector gathers over the lanes (the stencils' nodes), which
 // cost more than scalar loads on CPUs (on AMD Zen 4: the linear G2PD 8 % slower, measured). The
-// updates run as vector lanes over consecutive particles; over listed ones (the sorted traversal)
-// they stay scalar too, since their loads and stores of the particles' fields would become
-// gathers and scatters (a quarter of the sorted G2P-then-P2G's time, measured). A loop with an
-// exit is one GCC does not vectorise.
+// updates run as vector lanes over consecutive particles; over listed ones (the sorted traversal's
+// batches that are not consecutive) they stay scalar too, since their loads and stores of the
+// particles' fields would become gathers and scatters (a quarter of the sorted G2P-then-P2G's
+// time, measured). A loop with an exit is one GCC does not vectorise.
 template <int L, class Body, class Lanes>
 KOKKOS_FORCEINLINE_FUNCTION void finish_lanes(const Body& body, const ConsecutiveParticles& particle, int count,
                                               Lanes& lanes) {
@@ -366,10 +366,27 @@ struct TileColour {
   }
 };
 
-// One thread per tile (the CPU path): the tile's particles in index order, in batches of
-// stencil_batch_size; a batch of consecutive particles (the list strictly increases, so its last
-// is its first + count - 1) as such, another as listed particles. Which way a batch goes depends
-// on the grouping alone, not on the threads.
+// The next batch of a tile's particles from slot s of its list `order` (slots before `end`), as the
+// CPU walk takes them: up to stencil_batch_size consecutive particles, taken as such: the next 32
+// if they are consecutive (the list strictly increases, so they are when the last is the first +
+// 31), else those before the first break in the run (a particle that left the tile, one that came
+// from another, the end of a row of the tile) if there are at least 8 of them; else the next 32 as
+// listed particles. The batches depend on the list alone, not on the threads.
+struct TileBatch {
+  int count;
+  bool consecutive;
+};
+KOKKOS_INLINE_FUNCTION TileBatch next_tile_batch(const index_t* order, index_t s, index_t end) {
+  constexpr int L = stencil_batch_size, min_consecutive_batch = 8;
+  const int count = end - s < L ? static_cast<int>(end - s) : L;
+  if (order[s + count - 1] - order[s] == count - 1) return {count, true};
+  int run = 1;
+  while (order[s + run] == order[s] + run) ++run;  // (stops before s + count - 1)
+  return run >= min_consecutive_batch ? TileBatch{run, true} : TileBatch{count, false};
+}
+
+// One thread per tile (the CPU path): the tile's particles in index order, in the batches of
+// next_tile_batch.
 template <class Shape, class Body>
 void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& particles,
                 const ColouredTiles& tiled, const Body& body) {
@@ -389,14 +406,15 @@ void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& 
           const index_t begin = offset(t), end = offset(t + 1);
           if (batched) {
             constexpr int L = stencil_batch_size;
-            for (index_t s = begin; s < end; s += L) {
-              const int count = end - s < L ? static_cast<int>(end - s) : L;
-              if (order(s + count - 1) - order(s) == count - 1)
-                run_batch<L>(shape, body, ConsecutiveParticles{order(s)}, count, cell.data(), x.data(), y.data(),
-                             row_stride);
-              else
-                run_batch<L>(shape, body, ListedParticles{order.data() + s}, count, cell.data(), x.data(),
+            for (index_t s = begin; s < end;) {
+              const TileBatch batch = next_tile_batch(order.data(), s, end);
+              if (batch.consecutive)
+                run_batch<L>(shape, body, ConsecutiveParticles{order(s)}, batch.count, cell.data(), x.data(),
                              y.data(), row_stride);
+              else
+                run_batch<L>(shape, body, ListedParticles{order.data() + s}, batch.count, cell.data(), x.data(),
+                             y.data(), row_stride);
+              s += batch.count;
             }
           } else {
             for (index_t s = begin; s < end; ++s) {

@@ -35,8 +35,8 @@ enum class ParticlePlacement { regular, random };
 enum class ObstacleShape { circle, rectangle, polygon };
 // How P2G combines contributions to a node: the execution space's ScatterView default
 // (duplicated on host back-ends, atomic on GPUs), one forced, or sorted: particles grouped by
-// cell and cells processed in colours that share no node, without atomics or copies, and
-// bitwise reproducible on any thread count.
+// tile of cells (by cell on GPUs) and tiles processed in colours that share no node, without
+// atomics or copies, and bitwise reproducible on any thread count.
 enum class P2GStrategy { automatic, duplicated, atomic, sorted };
 // Particle-grid weights on the Q1 grid: the paper's bilinear MPM, contiguous-particle GIMP
 // (the default: it converges under refinement where linear MPM does not; see README), or

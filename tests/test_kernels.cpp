@@ -691,9 +691,10 @@ void expect_coloured_runs_match_the_reference() {
   auto particle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), t.cells.particle);
   int consecutive = 0, listed = 0;
   for (index_t tile = 0; tile + 1 < static_cast<index_t>(offset.extent(0)); ++tile)
-    for (index_t s = offset(tile); s < offset(tile + 1); s += stencil_batch_size) {
-      const index_t last = std::min<index_t>(s + stencil_batch_size, offset(tile + 1)) - 1;
-      ++(particle(last) - particle(s) == last - s ? consecutive : listed);
+    for (index_t s = offset(tile); s < offset(tile + 1);) {
+      const TileBatch batch = next_tile_batch(particle.data(), s, offset(tile + 1));
+      ++(batch.consecutive ? consecutive : listed);
+      s += batch.count;
     }
   ASSERT_GT(consecutive, 0);
   ASSERT_GT(listed, 0);
