@@ -533,19 +533,18 @@ void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLo
   }
 }
 
-template <class Shape, class Body>
+// (ColouredCells or ColouredTiles.)
+template <class Shape, class Body, class Coloured,
+          class = std::enable_if_t<std::is_same<Coloured, ColouredCells>::value ||
+                                   std::is_same<Coloured, ColouredTiles>::value>>
 void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
-                               const ColouredCells& cells, const Body& body) {
+                               const Coloured& coloured, const Body& body) {
   static_assert(colour_tile_x > Shape::colour_period - 2 && colour_tile_y > Shape::colour_period - 2,
                 "tiles of one colour must not share a node");
-  walk_tiles_in_teams(label, shape, particles, cells, body);
-}
-template <class Shape, class Body>
-void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
-                               const ColouredTiles& tiles, const Body& body) {
-  static_assert(colour_tile_x > Shape::colour_period - 2 && colour_tile_y > Shape::colour_period - 2,
-                "tiles of one colour must not share a node");
-  walk_tiles(label, shape, particles, tiles, body);
+  if constexpr (std::is_same<Coloured, ColouredCells>::value)
+    walk_tiles_in_teams(label, shape, particles, coloured, body);
+  else
+    walk_tiles(label, shape, particles, coloured, body);
 }
 
 // Runs body(p) for every particle p, without a stencil: all particles at once, or one thread per
