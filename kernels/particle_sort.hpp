@@ -26,11 +26,15 @@ void permute_particle_field(const ViewType& view, const IndexView& permutation, 
 
 // A particle's bin for CellOrder: its cell, or the group of cells its cell belongs to (a map from
 // cell to bin: the coloured traversal's tiles on CPUs, kernels/transfer_kernels.hpp).
+// in_long_runs: whether consecutive particles mostly share a bin (groups of many cells, once the
+// particles are reordered by cell), so that the counting sort takes them run by run (below).
 struct CellBin {
+  static constexpr bool in_long_runs = false;
   IndexView cell;
   KOKKOS_INLINE_FUNCTION index_t operator()(index_t p) const { return cell(p); }
 };
 struct GroupOfCellBin {
+  static constexpr bool in_long_runs = true;
   IndexView cell, bin_of_cell;
   KOKKOS_INLINE_FUNCTION index_t operator()(index_t p) const { return bin_of_cell(cell(p)); }
 };
@@ -109,7 +113,24 @@ class CellOrder {
           // since the loop's stores might alias what it reads them from.)
           const index_t begin = range_part_begin(num_particles, chunks, t);
           const index_t end = range_part_begin(num_particles, chunks, t + 1);
-          for (index_t p = begin; p < end; ++p) ++start(bin_of(p), t);
+          if (BinOf::in_long_runs) {
+            // Run by run: one particle's count no longer waits on the previous one's store to the
+            // same counter (the bins of long runs are few, and each particle's is the last one's).
+            if (begin == end) return;
+            index_t run_bin = bin_of(begin), run = 0;
+            for (index_t p = begin; p < end; ++p) {
+              const index_t bin = bin_of(p);
+              if (bin != run_bin) {
+                start(run_bin, t) += run;
+                run_bin = bin;
+                run = 0;
+              }
+              ++run;
+            }
+            start(run_bin, t) += run;
+          } else {
+            for (index_t p = begin; p < end; ++p) ++start(bin_of(p), t);
+          }
         });
     // Each bin's first slot (offset) and, per chunk, the slot its first particle of the bin takes.
     Kokkos::parallel_scan(
@@ -129,7 +150,22 @@ class CellOrder {
         "cell_order_place", Kokkos::RangePolicy<ExecutionSpace>(0, chunks), KOKKOS_LAMBDA(const index_t t) {
           const index_t begin = range_part_begin(num_particles, chunks, t);
           const index_t end = range_part_begin(num_particles, chunks, t + 1);
-          for (index_t p = begin; p < end; ++p) particle(start(bin_of(p), t)++) = p;
+          if (BinOf::in_long_runs) {  // run by run, the next slot in a register
+            if (begin == end) return;
+            index_t run_bin = bin_of(begin), slot = start(run_bin, t);
+            for (index_t p = begin; p < end; ++p) {
+              const index_t bin = bin_of(p);
+              if (bin != run_bin) {
+                start(run_bin, t) = slot;
+                run_bin = bin;
+                slot = start(bin, t);
+              }
+              particle(slot++) = p;
+            }
+            start(run_bin, t) = slot;
+          } else {
+            for (index_t p = begin; p < end; ++p) particle(start(bin_of(p), t)++) = p;
+          }
         });
   }
 

@@ -323,7 +323,7 @@ struct StretchAndCellDivergence {
     const real_t dvx_dx = gradient[remapped_velocity][0], dvy_dy = gradient[remapped_velocity + 1][1];
     stretch_x(p) *= 1 + dt * dvx_dx;
     stretch_y(p) *= 1 + dt * dvy_dy;
-    auto access = cell_sums.access();
+    const auto& access = cell_sums.access();
     access(cell(p), cell_divergence_volume) += (dvx_dx + dvy_dy) * mass(p) / density(p);
   }
 };
@@ -467,7 +467,7 @@ class ColouredAccumulation {
   void prepare(const ParticleState& particles, const GridGeometry& grid) {
     const index_t cells_x = grid.cells_x(), cells_y = grid.cells_y();
     if constexpr (by_tile) {
-      if (static_cast<index_t>(tile_of_cell_.extent(0)) != cells_x * cells_y)
+      if (traversal_.cells_x != cells_x || traversal_.cells_y != cells_y)  // (the last build's grid)
         tile_of_cell_ = tile_of_each_cell(cells_x, cells_y);
       order_.build(particles.cell, particles.count, tile_of_cell_, tiles_along_x(cells_x) * tiles_along_y(cells_y));
     } else {
