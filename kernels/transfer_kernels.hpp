@@ -615,7 +615,7 @@ struct P2CBody {
   KOKKOS_INLINE_FUNCTION void operator()(const index_t p) const {
     real_t value[N];
     functor(p, value);
-    auto access = scatter.access();
+    const auto& access = scatter.access();
     for (int c = 0; c < N; ++c) access(cell(p), first_component + c) += value[c];
   }
 };
@@ -719,7 +719,7 @@ struct P2GDBody {
     constexpr int K = StencilType::width;
     real_t vector[N][2];
     functor(p, vector);
-    auto access = scatter.access();
+    const auto& access = scatter.access();
     for (int b = 0; b < K; ++b) {
       real_t row_x[N], row_y[N];  // G_x wy[b] and G_y gy[b]
       for (int c = 0; c < N; ++c) {
@@ -772,7 +772,7 @@ struct P2GAndP2GDBody {
   KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&value)[NV],
                                        const real_t (&vector)[ND][2]) const {
     constexpr int K = StencilType::width;
-    auto access = scatter.access();
+    const auto& access = scatter.access();
     for (int b = 0; b < K; ++b) {
       real_t row[NV], row_x[ND], row_y[ND];
       for (int c = 0; c < NV; ++c) row[c] = value[c] * s.wy[b];
