@@ -32,6 +32,7 @@
 
 #include <Kokkos_ScatterView.hpp>
 
+#include "kernels/particle_sort.hpp"
 #include "kernels/shape_functions.hpp"
 
 namespace mpmflow {
@@ -324,9 +325,12 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 constexpr int colour_tile_x = 64;
 constexpr int colour_tile_y = 4;
 
-// Tiles of cells_x x cells_y cells along x and y.
+// Tiles of cells_x x cells_y cells along x and y, and in all.
 KOKKOS_INLINE_FUNCTION index_t tiles_along_x(index_t cells_x) { return (cells_x + colour_tile_x - 1) / colour_tile_x; }
 KOKKOS_INLINE_FUNCTION index_t tiles_along_y(index_t cells_y) { return (cells_y + colour_tile_y - 1) / colour_tile_y; }
+KOKKOS_INLINE_FUNCTION index_t num_tiles(index_t cells_x, index_t cells_y) {
+  return tiles_along_x(cells_x) * tiles_along_y(cells_y);
+}
 
 // Each cell's tile, tiles numbered row of tiles by row of tiles (ColouredTiles' grouping).
 inline IndexView tile_of_each_cell(index_t cells_x, index_t cells_y) {
@@ -339,6 +343,25 @@ inline IndexView tile_of_each_cell(index_t cells_x, index_t cells_y) {
       });
   return tile;
 }
+
+// The particles grouped by tile for ColouredTiles, rebuilt by build() as they move: CellOrder over
+// the tiles, with the map from cell to tile kept while the grid's size stays the same.
+class TileOrder {
+ public:
+  const ColouredTiles& build(const IndexView& particle_cell, index_t num_particles, index_t cells_x,
+                             index_t cells_y) {
+    if (tiles_.cells_x != cells_x || tiles_.cells_y != cells_y) tile_of_cell_ = tile_of_each_cell(cells_x, cells_y);
+    order_.build(particle_cell, num_particles, tile_of_cell_, num_tiles(cells_x, cells_y));
+    tiles_ = {order_.bin_offset(), order_.particle(), cells_x, cells_y};
+    return tiles_;
+  }
+  size_t bytes() const { return order_.bytes() + tile_of_cell_.span() * sizeof(index_t); }
+
+ private:
+  CellOrder order_;
+  IndexView tile_of_cell_;
+  ColouredTiles tiles_;
+};
 
 // The tiles of one of the four colours: colour (a, b) holds tiles (a + 2 i, b + 2 j), `columns`
 // of them per row, `rows` rows; its k-th tile, that tile's number and its cells.
@@ -353,14 +376,15 @@ struct TileColour {
     rows = (tiles_y - b + 1) / 2 > 0 ? (tiles_y - b + 1) / 2 : 0;
   }
   index_t tiles() const { return columns * rows; }
-  KOKKOS_INLINE_FUNCTION index_t tile_number(index_t k) const {
-    return a + 2 * (k % columns) + tiles_x * (b + 2 * (k / columns));
-  }
+  // Tile k's place among all tiles, (tile_x(k), tile_y(k)), and its number there.
+  KOKKOS_INLINE_FUNCTION index_t tile_x(index_t k) const { return a + 2 * (k % columns); }
+  KOKKOS_INLINE_FUNCTION index_t tile_y(index_t k) const { return b + 2 * (k / columns); }
+  KOKKOS_INLINE_FUNCTION index_t tile_number(index_t k) const { return tile_x(k) + tiles_x * tile_y(k); }
   // The cells [ci_begin, ci_end) x [cj_begin, cj_end) of tile k.
   KOKKOS_INLINE_FUNCTION void cells_of_tile(index_t k, index_t& ci_begin, index_t& ci_end, index_t& cj_begin,
                                             index_t& cj_end) const {
-    ci_begin = (a + 2 * (k % columns)) * colour_tile_x;
-    cj_begin = (b + 2 * (k / columns)) * colour_tile_y;
+    ci_begin = tile_x(k) * colour_tile_x;
+    cj_begin = tile_y(k) * colour_tile_y;
     ci_end = ci_begin + colour_tile_x < cells_x ? ci_begin + colour_tile_x : cells_x;
     cj_end = cj_begin + colour_tile_y < cells_y ? cj_begin + colour_tile_y : cells_y;
   }
@@ -571,7 +595,7 @@ template <class Body>
 void for_each_particle(const char* label, const ColouredTiles& tiles, const Body& body) {
   const IndexView offset = tiles.tile_offset, order = tiles.particle;
   Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, tiles_along_x(tiles.cells_x) * tiles_along_y(tiles.cells_y)),
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, num_tiles(tiles.cells_x, tiles.cells_y)),
       KOKKOS_LAMBDA(const index_t t) {
         const index_t begin = offset(t), end = offset(t + 1);
         for (index_t s = begin; s < end; ++s) body(order(s));

@@ -465,15 +465,7 @@ class ColouredAccumulation {
   ColouredAccumulation(GridFields& fields, const NodeFieldsView& cell_sums)
       : state_{fields.state}, momentum_{momentum_columns(fields.state)}, cell_sums_{cell_sums} {}
   void prepare(const ParticleState& particles, const GridGeometry& grid) {
-    const index_t cells_x = grid.cells_x(), cells_y = grid.cells_y();
-    if constexpr (by_tile) {
-      if (traversal_.cells_x != cells_x || traversal_.cells_y != cells_y)  // (the last build's grid)
-        tile_of_cell_ = tile_of_each_cell(cells_x, cells_y);
-      order_.build(particles.cell, particles.count, tile_of_cell_, tiles_along_x(cells_x) * tiles_along_y(cells_y));
-    } else {
-      order_.build(particles.cell, particles.count, grid.num_cells());
-    }
-    traversal_ = {order_.bin_offset(), order_.particle(), cells_x, cells_y};
+    traversal_ = group(order_, particles, grid);
   }
   const Traversal& traversal(const ParticleState&) const { return traversal_; }
   Access& state() { return state_; }
@@ -482,12 +474,20 @@ class ColouredAccumulation {
   Access& cells() { return cell_sums_; }
   Access into(const NodeFieldsView& target) const { return Access{target}; }
   P2GStrategy strategy() const { return P2GStrategy::sorted; }
-  size_t extra_bytes() const { return order_.bytes() + tile_of_cell_.span() * sizeof(index_t); }
+  size_t extra_bytes() const { return order_.bytes(); }
 
  private:
   Access state_, momentum_, cell_sums_;
-  CellOrder order_;
-  IndexView tile_of_cell_;  // (by tile)
+  // The particles grouped by tile, or by cell.
+  static ColouredTiles group(TileOrder& order, const ParticleState& particles, const GridGeometry& grid) {
+    return order.build(particles.cell, particles.count, grid.cells_x(), grid.cells_y());
+  }
+  static ColouredCells group(CellOrder& order, const ParticleState& particles, const GridGeometry& grid) {
+    order.build(particles.cell, particles.count, grid.num_cells());
+    return {order.bin_offset(), order.particle(), grid.cells_x(), grid.cells_y()};
+  }
+
+  std::conditional_t<by_tile, TileOrder, CellOrder> order_;
   Traversal traversal_;
 };
 

@@ -215,20 +215,18 @@ constexpr bool is_coloured = std::is_same<D, Coloured>::value || std::is_same<D,
 // The particles `d` on `g` grouped for the coloured traversal of mode D: by tile or by cell.
 template <class D>
 struct ColouredTraversal {
-  CellOrder order;
-  IndexView tile_of_cell;
-  std::conditional_t<std::is_same<D, ColouredTeams>::value, ColouredCells, ColouredTiles> cells;
+  static constexpr bool teams = std::is_same<D, ColouredTeams>::value;
+  std::conditional_t<teams, CellOrder, TileOrder> order;
+  std::conditional_t<teams, ColouredCells, ColouredTiles> cells;
   static ColouredTraversal of(const GridGeometry& g, const DeviceParticles& d) {
     ColouredTraversal t;
-    if constexpr (std::is_same<D, ColouredTeams>::value) {
+    if constexpr (teams) {
       t.order.build(d.where.cell, d.count, g.num_cells());
       t.cells = ColouredCells{t.order.bin_offset(), t.order.particle(), g.cells_x(), g.cells_y()};
       // Teams of as many threads as there are (up to 2): the sub-colours' exclusive writes under test.
       t.cells.team_size = Kokkos::DefaultExecutionSpace().concurrency() > 1 ? 2 : 1;
     } else {
-      t.tile_of_cell = tile_of_each_cell(g.cells_x(), g.cells_y());
-      t.order.build(d.where.cell, d.count, t.tile_of_cell, tiles_along_x(g.cells_x()) * tiles_along_y(g.cells_y()));
-      t.cells = ColouredTiles{t.order.bin_offset(), t.order.particle(), g.cells_x(), g.cells_y()};
+      t.cells = t.order.build(d.where.cell, d.count, g.cells_x(), g.cells_y());
     }
     return t;
   }
@@ -645,18 +643,17 @@ TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
 // Grouped by tile (the coloured traversal's on CPUs): each tile's particles, those of its cells,
 // in index order; tiles numbered row of tiles by row of tiles. A grid of 3 x 3 tiles, the last
 // row and column of them partial.
-TEST(CellOrder, GroupsParticlesByTileInIndexOrder) {
+TEST(TileOrder, GroupsParticlesByTileInIndexOrder) {
   GridGeometry g = test_grid();
   g.nodes_x = 2 * colour_tile_x + 11;
   g.nodes_y = 2 * colour_tile_y + 3;
   const DeviceParticles d = to_device(g, random_particles(g, 5000, 9));
-  const index_t tiles_x = tiles_along_x(g.cells_x()), tiles = tiles_x * tiles_along_y(g.cells_y());
+  const index_t tiles_x = tiles_along_x(g.cells_x()), tiles = num_tiles(g.cells_x(), g.cells_y());
   ASSERT_EQ(tiles, 9);
-  const IndexView tile_of_cell = tile_of_each_cell(g.cells_x(), g.cells_y());
-  CellOrder order;
-  order.build(d.where.cell, d.count, tile_of_cell, tiles);
-  auto offset = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.bin_offset());
-  auto particle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.particle());
+  TileOrder order;
+  const ColouredTiles grouped = order.build(d.where.cell, d.count, g.cells_x(), g.cells_y());
+  auto offset = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grouped.tile_offset);
+  auto particle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grouped.particle);
   auto cell = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.cell);
   ASSERT_EQ(offset(tiles), d.count);
   std::vector<int> seen(d.count, 0);
