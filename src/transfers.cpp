@@ -478,13 +478,16 @@ class ColouredAccumulation {
 
  private:
   Access state_, momentum_, cell_sums_;
-  // The particles grouped by tile, or by cell.
-  static ColouredTiles group(TileOrder& order, const ParticleState& particles, const GridGeometry& grid) {
-    return order.build(particles.cell, particles.count, grid.cells_x(), grid.cells_y());
-  }
-  static ColouredCells group(CellOrder& order, const ParticleState& particles, const GridGeometry& grid) {
-    order.build(particles.cell, particles.count, grid.num_cells());
-    return {order.bin_offset(), order.particle(), grid.cells_x(), grid.cells_y()};
+  // The particles grouped by tile, or by cell. (A template, so that only the one in use is compiled:
+  // nvcc warns of an overload never called.)
+  template <class Order>
+  static Traversal group(Order& order, const ParticleState& particles, const GridGeometry& grid) {
+    if constexpr (std::is_same<Order, TileOrder>::value) {
+      return order.build(particles.cell, particles.count, grid.cells_x(), grid.cells_y());
+    } else {
+      order.build(particles.cell, particles.count, grid.num_cells());
+      return Traversal{order.bin_offset(), order.particle(), grid.cells_x(), grid.cells_y()};
+    }
   }
 
   std::conditional_t<by_tile, TileOrder, CellOrder> order_;
