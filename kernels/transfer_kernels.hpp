@@ -28,6 +28,7 @@
 // path, one particle per thread, as the paper's kernels; ParticleBatches and ColouredTiles compute
 // the stencils of batches of particles together in vector lanes on CPUs (Shape::fill_batch), the
 // solver's path, tested against the reference.
+#include <iterator>
 #include <type_traits>
 
 #include <Kokkos_ScatterView.hpp>
@@ -85,17 +86,23 @@ struct ColouredCells {
   int team_size = 0;  // threads per team; 0: Kokkos chooses (the tests ask for 2 on CPUs)
 };
 
-// Particles grouped by tile (the coloured traversal's tiles, below, numbered row of tiles by row
-// of tiles: tile_of_each_cell), in increasing index within each tile, for the coloured traversal
-// with a thread per tile (the CPU path; CellOrder builds it with the map from cell to tile): the
-// particles of tile t are particle(tile_offset(t)) .. particle(tile_offset(t + 1) - 1). Particles
-// reordered by cell lie in long runs of consecutive indices within a tile (each a row of the
-// tile), and stay in them as they move among the tile's cells: the walk takes such a run's
-// batches as consecutive particles, whose loads and updates run as vector lanes.
+// A tile of the coloured traversals: its extent in cells along x and y.
+struct TileExtent {
+  index_t x, y;
+};
+
+// Particles grouped by tile (the coloured traversal's tiles of `tile` cells, below, numbered row of
+// tiles by row of tiles: tile_of_each_cell), in increasing index within each tile, for the
+// coloured traversal with a thread per tile (the CPU path; TileOrder builds it): the particles of
+// tile t are particle(tile_offset(t)) .. particle(tile_offset(t + 1) - 1). Particles reordered by
+// cell lie in long runs of consecutive indices within a tile (each a row of the tile), and stay
+// in them as they move among the tile's cells: the walk takes such a run's batches as consecutive
+// particles, whose loads and updates run as vector lanes.
 struct ColouredTiles {
   IndexView tile_offset;
   IndexView particle;
   index_t cells_x = 0, cells_y = 0;
+  TileExtent tile{0, 0};  // (walk_tile_for)
 };
 
 // All particles, for the fast traversal (for_each_particle_stencil below): batched stencils on
@@ -311,35 +318,52 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
     for_each_particle_stencil(label, shape, particles, batches.count, body);
 }
 
-// The same, tile by tile: the cells are grouped in tiles of colour_tile_x x colour_tile_y cells
-// and the tiles in four colours (2 x 2); the tiles of one colour run in parallel, one thread per
-// tile walking its particles in index order (walk_tiles, ColouredTiles), or one team per tile
-// (walk_tiles_in_teams, ColouredCells: the GPU path). A particle of cell
-// (ci, cj) reaches nodes ci - r + 1 .. ci + r (r = Shape::colour_period / 2), so two tiles of one
-// colour, a tile apart, share no node when the tile is wider and taller than 2 r - 2 cells. Every
-// node's sum so comes in an order fixed by the tiles and the particles' grouping alone: the same
-// bits for any thread count. Tiles wide along x, where the cell order runs: a tile's row is a long
-// stretch of consecutive particles (once reordered by cell), and 4 passes over the grid instead
-// of colour_period^2 for single cells. On CPUs the stencils of a tile's particles are computed in
-// batches, as for ParticleBatches.
-constexpr int colour_tile_x = 64;
-constexpr int colour_tile_y = 4;
+// The same, tile by tile: the cells are grouped in tiles and the tiles in four colours (2 x 2);
+// the tiles of one colour run in parallel, one thread per tile walking its particles in index
+// order (walk_tiles, ColouredTiles), or one team per tile (walk_tiles_in_teams, ColouredCells: the
+// GPU path). A particle of cell (ci, cj) reaches nodes ci - r + 1 .. ci + r (r =
+// Shape::colour_period / 2), so two tiles of one colour, a tile apart, share no node when the tile
+// is wider and taller than 2 r - 2 cells. Every node's sum so comes in an order fixed by the tiles
+// and the particles' grouping alone: the same bits for any thread count. Tiles wide along x, where
+// the cell order runs: a tile's row is a long stretch of consecutive particles (once reordered by
+// cell), and 4 passes over the grid instead of colour_period^2 for single cells. On CPUs the
+// stencils of a tile's particles are computed in batches, as for ParticleBatches.
+//
+// A team's tile on GPUs (ColouredCells), small: its nodes are staged in scratch memory (TeamTile).
+constexpr TileExtent team_tile{64, 4};
+// A thread's tile on CPUs (ColouredTiles), as large as the grid allows (walk_tile_for): each
+// colour's pass fetches the nodes its tiles reach, and the other passes fetch again those of a
+// tile's ring; a large tile's rows of nodes and of particles are long streams. A sorted P2G on one
+// thread, the cylinder at 448 x 224 reordered every step, took 40-42 ms a step with tiles of 64 x 4
+// cells, 35-36 with 128 x 16, and 33-37 with all the small tiles in one pass in order (README,
+// Benchmarks). The largest that gives at least min_walk_tiles tiles, so that the threads have
+// enough to share; chosen by the grid alone, so that the sums' order does not depend on the threads.
+constexpr TileExtent walk_tiles_largest_first[] = {{128, 16}, {64, 8}, {64, 4}};
+constexpr index_t min_walk_tiles = 32;
+constexpr TileExtent smallest_walk_tile = walk_tiles_largest_first[std::size(walk_tiles_largest_first) - 1];
 
-// Tiles of cells_x x cells_y cells along x and y, and in all.
-KOKKOS_INLINE_FUNCTION index_t tiles_along_x(index_t cells_x) { return (cells_x + colour_tile_x - 1) / colour_tile_x; }
-KOKKOS_INLINE_FUNCTION index_t tiles_along_y(index_t cells_y) { return (cells_y + colour_tile_y - 1) / colour_tile_y; }
-KOKKOS_INLINE_FUNCTION index_t num_tiles(index_t cells_x, index_t cells_y) {
-  return tiles_along_x(cells_x) * tiles_along_y(cells_y);
+// Tiles of `tile` cells over cells_x x cells_y cells along x and y, and in all.
+KOKKOS_INLINE_FUNCTION index_t tiles_along_x(index_t cells_x, TileExtent tile) { return (cells_x + tile.x - 1) / tile.x; }
+KOKKOS_INLINE_FUNCTION index_t tiles_along_y(index_t cells_y, TileExtent tile) { return (cells_y + tile.y - 1) / tile.y; }
+KOKKOS_INLINE_FUNCTION index_t num_tiles(index_t cells_x, index_t cells_y, TileExtent tile) {
+  return tiles_along_x(cells_x, tile) * tiles_along_y(cells_y, tile);
 }
 
-// Each cell's tile, tiles numbered row of tiles by row of tiles (ColouredTiles' grouping).
-inline IndexView tile_of_each_cell(index_t cells_x, index_t cells_y) {
+// The walk's tile for a grid of cells_x x cells_y cells (above).
+inline TileExtent walk_tile_for(index_t cells_x, index_t cells_y) {
+  for (const TileExtent tile : walk_tiles_largest_first)
+    if (num_tiles(cells_x, cells_y, tile) >= min_walk_tiles) return tile;
+  return smallest_walk_tile;
+}
+
+// Each cell's tile of `extent` cells, tiles numbered row of tiles by row of tiles (ColouredTiles' grouping).
+inline IndexView tile_of_each_cell(index_t cells_x, index_t cells_y, TileExtent extent) {
   IndexView tile(Kokkos::view_alloc(Kokkos::WithoutInitializing, "tile_of_cell"), cells_x * cells_y);
-  const index_t tiles_x = tiles_along_x(cells_x);
+  const index_t tiles_x = tiles_along_x(cells_x, extent), tile_x = extent.x, tile_y = extent.y;
   Kokkos::parallel_for(
       "tile_of_cell", Kokkos::RangePolicy<ExecutionSpace>(0, cells_x * cells_y), KOKKOS_LAMBDA(const index_t c) {
         const index_t cj = c / cells_x, ci = c - cj * cells_x;
-        tile(c) = ci / colour_tile_x + tiles_x * (cj / colour_tile_y);
+        tile(c) = ci / tile_x + tiles_x * (cj / tile_y);
       });
   return tile;
 }
@@ -350,9 +374,12 @@ class TileOrder {
  public:
   const ColouredTiles& build(const IndexView& particle_cell, index_t num_particles, index_t cells_x,
                              index_t cells_y) {
-    if (tiles_.cells_x != cells_x || tiles_.cells_y != cells_y) tile_of_cell_ = tile_of_each_cell(cells_x, cells_y);
-    order_.build(particle_cell, num_particles, tile_of_cell_, num_tiles(cells_x, cells_y));
-    tiles_ = {order_.bin_offset(), order_.particle(), cells_x, cells_y};
+    if (tiles_.cells_x != cells_x || tiles_.cells_y != cells_y) {
+      tiles_.tile = walk_tile_for(cells_x, cells_y);
+      tile_of_cell_ = tile_of_each_cell(cells_x, cells_y, tiles_.tile);
+    }
+    order_.build(particle_cell, num_particles, tile_of_cell_, num_tiles(cells_x, cells_y, tiles_.tile));
+    tiles_ = {order_.bin_offset(), order_.particle(), cells_x, cells_y, tiles_.tile};
     return tiles_;
   }
   size_t bytes() const { return order_.bytes() + tile_of_cell_.span() * sizeof(index_t); }
@@ -363,15 +390,17 @@ class TileOrder {
   ColouredTiles tiles_;
 };
 
-// The tiles of one of the four colours: colour (a, b) holds tiles (a + 2 i, b + 2 j), `columns`
-// of them per row, `rows` rows; its k-th tile, that tile's number and its cells.
+// The tiles of `tile` cells of one of the four colours: colour (a, b) holds tiles (a + 2 i, b + 2 j),
+// `columns` of them per row, `rows` rows; its k-th tile, that tile's number and its cells.
 struct TileColour {
   index_t a = 0, b = 0, columns = 0, rows = 0;
   index_t cells_x = 0, cells_y = 0, tiles_x = 0;
+  TileExtent tile;
 
-  TileColour(index_t cells_x_, index_t cells_y_, int colour)
-      : a(colour % 2), b(colour / 2), cells_x(cells_x_), cells_y(cells_y_), tiles_x(tiles_along_x(cells_x_)) {
-    const index_t tiles_y = tiles_along_y(cells_y);
+  TileColour(index_t cells_x_, index_t cells_y_, int colour, TileExtent tile_)
+      : a(colour % 2), b(colour / 2), cells_x(cells_x_), cells_y(cells_y_), tiles_x(tiles_along_x(cells_x_, tile_)),
+        tile(tile_) {
+    const index_t tiles_y = tiles_along_y(cells_y, tile);
     columns = (tiles_x - a + 1) / 2 > 0 ? (tiles_x - a + 1) / 2 : 0;
     rows = (tiles_y - b + 1) / 2 > 0 ? (tiles_y - b + 1) / 2 : 0;
   }
@@ -383,10 +412,10 @@ struct TileColour {
   // The cells [ci_begin, ci_end) x [cj_begin, cj_end) of tile k.
   KOKKOS_INLINE_FUNCTION void cells_of_tile(index_t k, index_t& ci_begin, index_t& ci_end, index_t& cj_begin,
                                             index_t& cj_end) const {
-    ci_begin = tile_x(k) * colour_tile_x;
-    cj_begin = tile_y(k) * colour_tile_y;
-    ci_end = ci_begin + colour_tile_x < cells_x ? ci_begin + colour_tile_x : cells_x;
-    cj_end = cj_begin + colour_tile_y < cells_y ? cj_begin + colour_tile_y : cells_y;
+    ci_begin = tile_x(k) * tile.x;
+    cj_begin = tile_y(k) * tile.y;
+    ci_end = ci_begin + tile.x < cells_x ? ci_begin + tile.x : cells_x;
+    cj_end = cj_begin + tile.y < cells_y ? cj_begin + tile.y : cells_y;
   }
 };
 
@@ -422,7 +451,7 @@ void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& 
   // (A plain `if` on it below: nvcc allows no `if constexpr` around what a device lambda captures.)
   constexpr bool batched = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
   for (int colour = 0; colour < 4; ++colour) {
-    const TileColour tiles(tiled.cells_x, tiled.cells_y, colour);
+    const TileColour tiles(tiled.cells_x, tiled.cells_y, colour, tiled.tile);
     if (tiles.tiles() == 0) continue;
     Kokkos::parallel_for(
         label, Kokkos::RangePolicy<ExecutionSpace>(0, tiles.tiles()), KOKKOS_LAMBDA(const index_t k) {
@@ -473,7 +502,7 @@ struct TeamTile {
   using Team = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
   static constexpr bool staged = OnlyWritesNodes<Body>::value;
   static constexpr index_t P = Shape::colour_period, r = Shape::colour_period / 2;
-  static constexpr index_t window_x = colour_tile_x + 2 * r - 1, window_y = colour_tile_y + 2 * r - 1;
+  static constexpr index_t window_x = team_tile.x + 2 * r - 1, window_y = team_tile.y + 2 * r - 1;
 
   Shape shape;
   RealView x, y;
@@ -537,7 +566,7 @@ void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLo
   int components = 0;
   if constexpr (TeamTile<Shape, Body>::staged) components = static_cast<int>(body.scatter.target.extent(1));
   for (int colour = 0; colour < 4; ++colour) {
-    const TileColour tiles(cells.cells_x, cells.cells_y, colour);
+    const TileColour tiles(cells.cells_x, cells.cells_y, colour, team_tile);
     if (tiles.tiles() == 0) continue;
     const TeamTile<Shape, Body> tile{shape,
                                      particles.x,
@@ -563,7 +592,8 @@ template <class Shape, class Body, class Coloured,
                                    std::is_same<Coloured, ColouredTiles>::value>>
 void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
                                const Coloured& coloured, const Body& body) {
-  static_assert(colour_tile_x > Shape::colour_period - 2 && colour_tile_y > Shape::colour_period - 2,
+  constexpr TileExtent tile = std::is_same<Coloured, ColouredCells>::value ? team_tile : smallest_walk_tile;
+  static_assert(tile.x > Shape::colour_period - 2 && tile.y > Shape::colour_period - 2,
                 "tiles of one colour must not share a node");
   if constexpr (std::is_same<Coloured, ColouredCells>::value)
     walk_tiles_in_teams(label, shape, particles, coloured, body);
@@ -595,7 +625,7 @@ template <class Body>
 void for_each_particle(const char* label, const ColouredTiles& tiles, const Body& body) {
   const IndexView offset = tiles.tile_offset, order = tiles.particle;
   Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, num_tiles(tiles.cells_x, tiles.cells_y)),
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, num_tiles(tiles.cells_x, tiles.cells_y, tiles.tile)),
       KOKKOS_LAMBDA(const index_t t) {
         const index_t begin = offset(t), end = offset(t + 1);
         for (index_t s = begin; s < end; ++s) body(order(s));

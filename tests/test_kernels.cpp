@@ -640,18 +640,43 @@ TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
   for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
 }
 
+// The walk's tiles: the largest that leave at least min_walk_tiles tiles, else the smallest.
+TEST(TileOrder, TakesTheLargestTileThatLeavesEnoughTiles) {
+  const auto expect_tile = [](index_t cells_x, index_t cells_y, index_t x, index_t y) {
+    const TileExtent tile = walk_tile_for(cells_x, cells_y);
+    EXPECT_EQ(tile.x, x) << cells_x << " x " << cells_y << " cells";
+    EXPECT_EQ(tile.y, y) << cells_x << " x " << cells_y << " cells";
+  };
+  expect_tile(448, 224, 128, 16);  // 4 x 14 tiles
+  expect_tile(256, 64, 64, 8);     // 128 x 16: 2 x 4 tiles, too few; 64 x 8: 4 x 8
+  expect_tile(60, 30, 64, 4);      // too few of any: the smallest
+  for (index_t cells_x : {10, 100, 300, 1000})
+    for (index_t cells_y : {3, 40, 200, 900}) {
+      const TileExtent tile = walk_tile_for(cells_x, cells_y);
+      const bool smallest = tile.x == smallest_walk_tile.x && tile.y == smallest_walk_tile.y;
+      EXPECT_TRUE(smallest || num_tiles(cells_x, cells_y, tile) >= min_walk_tiles) << cells_x << " x " << cells_y;
+      for (const TileExtent larger : walk_tiles_largest_first) {
+        if (larger.x == tile.x && larger.y == tile.y) break;
+        EXPECT_LT(num_tiles(cells_x, cells_y, larger), min_walk_tiles) << cells_x << " x " << cells_y;
+      }
+    }
+}
+
 // Grouped by tile (the coloured traversal's on CPUs): each tile's particles, those of its cells,
-// in index order; tiles numbered row of tiles by row of tiles. A grid of 3 x 3 tiles, the last
-// row and column of them partial.
+// in index order; tiles numbered row of tiles by row of tiles. A grid of 3 x 3 tiles (of the
+// smallest extent: too few for a larger one), the last row and column of them partial.
 TEST(TileOrder, GroupsParticlesByTileInIndexOrder) {
   GridGeometry g = test_grid();
-  g.nodes_x = 2 * colour_tile_x + 11;
-  g.nodes_y = 2 * colour_tile_y + 3;
+  const TileExtent tile = smallest_walk_tile;
+  g.nodes_x = 2 * tile.x + 11;
+  g.nodes_y = 2 * tile.y + 3;
   const DeviceParticles d = to_device(g, random_particles(g, 5000, 9));
-  const index_t tiles_x = tiles_along_x(g.cells_x()), tiles = num_tiles(g.cells_x(), g.cells_y());
+  const index_t tiles_x = tiles_along_x(g.cells_x(), tile), tiles = num_tiles(g.cells_x(), g.cells_y(), tile);
   ASSERT_EQ(tiles, 9);
   TileOrder order;
   const ColouredTiles grouped = order.build(d.where.cell, d.count, g.cells_x(), g.cells_y());
+  ASSERT_EQ(grouped.tile.x, tile.x);
+  ASSERT_EQ(grouped.tile.y, tile.y);
   auto offset = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grouped.tile_offset);
   auto particle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grouped.particle);
   auto cell = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.cell);
@@ -661,7 +686,7 @@ TEST(TileOrder, GroupsParticlesByTileInIndexOrder) {
     EXPECT_LT(offset(t), offset(t + 1)) << "tile " << t << " holds particles";
     for (index_t s = offset(t); s < offset(t + 1); ++s) {
       const index_t c = cell(particle(s)), ci = c % g.cells_x(), cj = c / g.cells_x();
-      EXPECT_EQ(ci / colour_tile_x + tiles_x * (cj / colour_tile_y), t) << "particle " << particle(s);
+      EXPECT_EQ(ci / tile.x + tiles_x * (cj / tile.y), t) << "particle " << particle(s);
       if (s > offset(t)) EXPECT_LT(particle(s - 1), particle(s));  // index order within the tile
       ++seen[particle(s)];
     }
@@ -676,7 +701,7 @@ TEST(TileOrder, GroupsParticlesByTileInIndexOrder) {
 template <class Make>
 void expect_coloured_runs_match_the_reference() {
   GridGeometry g = test_grid();
-  g.nodes_y = 3 * colour_tile_y + 3;
+  g.nodes_y = 3 * smallest_walk_tile.y + 3;  // 3 rows of tiles
   HostParticles h = regular_particles(g, 3);
   for (size_t k = 0; k < h.y.size(); k += 5)
     if (h.y[k] + g.spacing_y < g.node_y(g.cells_y() - 1)) h.y[k] += g.spacing_y;
