@@ -453,8 +453,11 @@ void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& 
   for (int colour = 0; colour < 4; ++colour) {
     const TileColour tiles(tiled.cells_x, tiled.cells_y, colour, tiled.tile);
     if (tiles.tiles() == 0) continue;
+    // Tiles taken as threads come free: few and large, they hold unequal numbers of particles.
+    // (Which thread adds a tile changes no sum.)
+    using Dynamic = Kokkos::RangePolicy<ExecutionSpace, Kokkos::Schedule<Kokkos::Dynamic>>;
     Kokkos::parallel_for(
-        label, Kokkos::RangePolicy<ExecutionSpace>(0, tiles.tiles()), KOKKOS_LAMBDA(const index_t k) {
+        label, Dynamic(0, tiles.tiles(), Kokkos::ChunkSize(1)), KOKKOS_LAMBDA(const index_t k) {
           const index_t t = tiles.tile_number(k);
           const index_t begin = offset(t), end = offset(t + 1);
           if (batched) {
