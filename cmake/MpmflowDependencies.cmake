@@ -72,9 +72,3 @@ if(MPMFLOW_ENABLE_HDF5)
   endif()
 endif()
 
-# Version string for the banner: the project version and the git commit it was built from.
-execute_process(COMMAND git describe --always --dirty WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
-                OUTPUT_VARIABLE MPMFLOW_GIT_COMMIT OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
-if(NOT MPMFLOW_GIT_COMMIT)
-  set(MPMFLOW_GIT_COMMIT "unknown commit")
-endif()

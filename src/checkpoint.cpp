@@ -9,6 +9,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "build_commit.hpp"
 #include "hdf5_io.hpp"
 #include "run_files.hpp"
 #include "open_boundaries.hpp"
@@ -61,6 +62,7 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
     h5::write_string_attribute(file, "case", case_name);
     h5::write_string_attribute(file, "effective_case", effective_case_json(solver.config()));
     h5::write_string_attribute(file, "run_id", clock.run_id);
+    h5::write_string_attribute(file, "mpmflow_build", build_identity());
     h5::write_attribute(file, "time", clock.time);
     h5::write_attribute(file, "step", static_cast<double>(clock.step));
     h5::write_attribute(file, "next_snapshot", clock.next_snapshot);

@@ -14,6 +14,7 @@
 #include <stdexcept>
 #include <type_traits>
 
+#include "build_commit.hpp"
 #include "hdf5_io.hpp"
 
 namespace mpmflow {
@@ -197,6 +198,7 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
     h5::write_attribute(file, "num_ranks", static_cast<double>(context_.size()));
     h5::write_string_attribute(file, "case", case_name_);
     h5::write_string_attribute(file, "run_id", run_id_);
+    h5::write_string_attribute(file, "mpmflow_build", build_identity());
     // The case as it ran (mpmflow case prints the same): what produced this file.
     h5::write_string_attribute(file, "effective_case", effective_case_json(solver.config()));
     h5::write_string_attribute(file, "layout",

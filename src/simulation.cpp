@@ -13,6 +13,7 @@
 #include <streambuf>
 #include <vector>
 
+#include "build_commit.hpp"
 #include "checkpoint.hpp"
 #include "hdf5_io.hpp"
 #include "run_files.hpp"
@@ -82,7 +83,7 @@ namespace {
 std::string describe_build(bool with_concurrency) {
   std::ostringstream out;
   const int kv = KOKKOS_VERSION;
-  out << "mpmflow " << MPMFLOW_VERSION << " (" << MPMFLOW_GIT_COMMIT << "), "
+  out << build_identity() << ", "
       << (sizeof(real_t) == 8 ? "double" : "single") << " precision\n"
       << "Kokkos " << kv / 10000 << "." << (kv / 100) % 100 << "." << kv % 100 << ", execution space "
       << ExecutionSpace::name();

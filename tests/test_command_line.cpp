@@ -8,6 +8,12 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
+
+#include "build_commit.hpp"
+#ifdef MPMFLOW_HAVE_HDF5
+#include "hdf5_io.hpp"
+#endif
 
 namespace {
 
@@ -77,6 +83,27 @@ TEST_F(CommandLine, VersionNamesKokkosAndExecutionSpace) {
   EXPECT_NE(r.output.find("mpmflow "), std::string::npos);
   EXPECT_NE(r.output.find("Kokkos "), std::string::npos);
   EXPECT_NE(r.output.find("execution space"), std::string::npos);
+}
+
+// The banner names the commit the sources are at now, not the one the build folder was configured
+// at: the build rewrites it whenever it changed (cmake/MpmflowBuildCommit.cmake).
+TEST_F(CommandLine, VersionNamesTheCommitOfTheSources) {
+  CommandResult git;
+  {
+    const std::string command = "git -C '" + std::string(MPMFLOW_SOURCE_DIR) + "' describe --always --dirty 2>/dev/null";
+    FILE* pipe = popen(command.c_str(), "r");
+    ASSERT_NE(pipe, nullptr);
+    char buffer[256];
+    while (size_t n = fread(buffer, 1, sizeof buffer, pipe)) git.output.append(buffer, n);
+    const int status = pclose(pipe);
+    git.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  }
+  if (git.exit_code != 0 || git.output.empty()) GTEST_SKIP() << "the sources are not a git checkout";
+  const std::string commit = git.output.substr(0, git.output.find_last_not_of("\n") + 1);
+  EXPECT_EQ(std::string(mpmflow::build_commit()), commit) << "built from other sources: rebuild";
+  const CommandResult r = run_mpmflow("--version", dir_);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("mpmflow " MPMFLOW_VERSION " (" + commit + ")"), std::string::npos) << r.output;
 }
 
 TEST_F(CommandLine, UnknownKeyIsRejected) {
@@ -183,6 +210,26 @@ TEST_F(CommandLine, ARunDoesNotMixWithAnotherRunsFiles) {
   EXPECT_EQ(overwritten.exit_code, 0) << overwritten.output;
   EXPECT_NE(overwritten.output.find("files of run sod-"), std::string::npos) << overwritten.output;
   EXPECT_NE(read_text(dir_ / "out" / "sod_manifest.json"), first_manifest);  // a new run id
+}
+
+// Snapshots and checkpoints name the build that wrote them (attribute mpmflow_build).
+TEST_F(CommandLine, FilesNameTheBuildThatWroteThem) {
+  write_case("case.json", sod_text_);
+  ASSERT_EQ(run_mpmflow("run case.json --output out --set domain/cells_x=20 --set output/snapshots=1 "
+                        "--set output/checkpoint_interval=5",
+                        dir_)
+                .exit_code,
+            0);
+  std::vector<fs::path> files{dir_ / "out" / "sod_000001.h5"};
+  for (const auto& entry : fs::directory_iterator(dir_ / "out"))
+    if (entry.path().filename().string().find("_checkpoint_") != std::string::npos) files.push_back(entry.path());
+  ASSERT_GE(files.size(), 2u) << "no checkpoint written";
+  for (const fs::path& file : files) {
+    namespace h5 = mpmflow::h5;
+    h5::Handle h(h5::open_file_here(file.string()), H5Fclose, "open " + file.string());
+    ASSERT_GT(H5Aexists(h, "mpmflow_build"), 0) << file;
+    EXPECT_EQ(h5::read_string_attribute(h, "mpmflow_build"), mpmflow::build_identity()) << file;
+  }
 }
 #endif
 
