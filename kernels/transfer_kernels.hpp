@@ -118,6 +118,21 @@ struct DirectNodeAccess {
   KOKKOS_INLINE_FUNCTION real_t& operator()(index_t node, int component) const { return target(node, component); }
 };
 
+// A thread's window on a tile's nodes (the CPU walk, walk_tiles_staged): node by node, the node's
+// `width` columns together, so that what a particle adds to a node is one vector addition, not a
+// scalar one per column. Node n (a node of the grid, within the window) at row n - base.
+struct NodeMajorWindow {
+  static constexpr int width = 8;  // columns a node holds: one AVX-512 vector of doubles
+  real_t* data;
+  index_t base;
+  int first_component;  // the node fields' column of the window's column 0
+  KOKKOS_INLINE_FUNCTION const NodeMajorWindow& access() const { return *this; }
+  KOKKOS_INLINE_FUNCTION real_t* node(index_t n) const { return data + (n - base) * width; }
+  KOKKOS_INLINE_FUNCTION real_t& operator()(index_t n, int component) const {
+    return node(n)[component - first_component];
+  }
+};
+
 // The coloured traversal writes in place: nothing to prepare or combine.
 inline void p2g_begin(DirectNodeAccess&, const NodeFieldsView&) {}
 inline void p2g_end(DirectNodeAccess&, const NodeFieldsView&) {}
@@ -562,6 +577,75 @@ struct TeamTile {
   }
 };
 
+// A body that can add into a thread's node-major window (NodeMajorWindow): marked by a member
+// staged_in(window) (P2GAndP2GDBody).
+template <class Body, class = void>
+struct StagesInWindow : std::false_type {};
+template <class Body>
+struct StagesInWindow<Body, std::void_t<decltype(std::declval<const Body&>().staged_in(std::declval<NodeMajorWindow>()))>>
+    : std::true_type {};
+
+// walk_tiles with each tile's nodes staged in a window of the thread's (CPUs): zeroed, the tile's
+// particles added into it as walk_tiles adds them into the node fields, then added to the node
+// fields once. The window holds whole rows of nodes (row stride nodes_x, so that a stencil's node
+// n is the window's row n - base), of which the tile's reach is used: tile.x + 2 r - 1 by
+// tile.y + 2 r - 1 nodes from (ci_begin - r + 1, cj_begin - r + 1), r = colour_period / 2.
+template <class Shape, class Body>
+void walk_tiles_staged(const char* label, const Shape& shape, const ParticleLocations& particles,
+                       const ColouredTiles& tiled, const Body& body) {
+  constexpr int W = NodeMajorWindow::width;
+  constexpr index_t r = Shape::colour_period / 2;
+  const auto x = particles.x;
+  const auto y = particles.y;
+  const auto cell = particles.cell;
+  const index_t nodes_x = shape.grid.geometry.nodes_x, nodes_y = shape.grid.geometry.nodes_y;
+  const index_t window_x = tiled.tile.x + 2 * r - 1, window_y = tiled.tile.y + 2 * r - 1;
+  const size_t window_bytes = size_t(nodes_x * window_y) * W * sizeof(real_t);
+  const IndexView offset = tiled.tile_offset, order = tiled.particle;
+  const NodeFieldsView target = body.scatter.target;
+  const int first = body.first_written_column(), components = body.end_written_column() - first;
+  if (components > W) return walk_tiles(label, shape, particles, tiled, body);  // columns too far apart
+  using Policy = Kokkos::TeamPolicy<ExecutionSpace, Kokkos::Schedule<Kokkos::Dynamic>>;
+  using Team = typename Policy::member_type;
+  for (int colour = 0; colour < 4; ++colour) {
+    const TileColour tiles(tiled.cells_x, tiled.cells_y, colour, tiled.tile);
+    if (tiles.tiles() == 0) continue;
+    Policy policy(tiles.tiles(), 1);
+    policy.set_scratch_size(0, Kokkos::PerTeam(window_bytes));
+    Kokkos::parallel_for(label, policy, KOKKOS_LAMBDA(const Team& team) {
+      const index_t k = team.league_rank(), t = tiles.tile_number(k);
+      index_t ci_begin, ci_end, cj_begin, cj_end;
+      tiles.cells_of_tile(k, ci_begin, ci_end, cj_begin, cj_end);
+      const index_t i0 = ci_begin - r + 1, j0 = cj_begin - r + 1;
+      const index_t i_begin = i0 > 0 ? i0 : 0, j_begin = j0 > 0 ? j0 : 0;
+      const index_t i_end = i0 + window_x < nodes_x ? i0 + window_x : nodes_x;
+      const index_t j_end = j0 + window_y < nodes_y ? j0 + window_y : nodes_y;
+      const NodeMajorWindow window{static_cast<real_t*>(team.team_scratch(0).get_shmem(window_bytes)),
+                                   i0 + nodes_x * j0, first};
+      for (index_t j = j_begin; j < j_end; ++j)
+        for (index_t i = i_begin; i < i_end; ++i) {
+          real_t* node = window.node(i + nodes_x * j);
+          for (int c = 0; c < W; ++c) node[c] = 0;
+        }
+      const auto local = body.staged_in(window);
+      constexpr int L = stencil_batch_size;
+      for (index_t s = offset(t); s < offset(t + 1);) {
+        const TileBatch batch = next_tile_batch(order.data(), s, offset(t + 1));
+        if (batch.consecutive)
+          run_batch<L>(shape, local, ConsecutiveParticles{order(s)}, batch.count, cell.data(), x.data(), y.data(),
+                       nodes_x);
+        else
+          run_batch<L>(shape, local, ListedParticles{order.data() + s}, batch.count, cell.data(), x.data(), y.data(),
+                       nodes_x);
+        s += batch.count;
+      }
+      for (index_t j = j_begin; j < j_end; ++j)
+        for (int c = 0; c < components; ++c)
+          for (index_t i = i_begin; i < i_end; ++i) target(i + nodes_x * j, first + c) += window.node(i + nodes_x * j)[c];
+    });
+  }
+}
+
 // A team of threads per tile (the GPU path): TeamTile.
 template <class Shape, class Body>
 void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLocations& particles,
@@ -600,6 +684,8 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
                 "tiles of one colour must not share a node");
   if constexpr (std::is_same<Coloured, ColouredCells>::value)
     walk_tiles_in_teams(label, shape, particles, coloured, body);
+  else if constexpr (StagesInWindow<Body>::value && std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+    walk_tiles_staged(label, shape, particles, coloured, body);
   else
     walk_tiles(label, shape, particles, coloured, body);
 }
@@ -811,23 +897,105 @@ struct P2GAndP2GDBody {
   }
   // In two phases over a batch (PreparesThenScatters).
   static constexpr bool prepares_then_scatters = true;
+  static constexpr bool into_window = std::is_same<Access, NodeMajorWindow>::value;
+  static constexpr int W = NodeMajorWindow::width;
   template <int L>
-  struct Lanes {
+  struct ColumnLanes {
     real_t value[L][NV];
     real_t vector[L][ND][2];
   };
+  // Into a window (NodeMajorWindow): each particle's additions as node vectors of W columns, F in
+  // the value columns of `value`, G_y and G_x in the vector columns of `along_y` and `across`, so
+  // that a node's addition is one vector operation: w += wx[a] (wy[b] value + gy[b] along_y) +
+  // gx[a] wy[b] across. Made for the whole batch before any is added: a vector read right after
+  // its elements were stored one by one waits for the stores (no store forwarding), which made a
+  // first version slower than the column by column addition.
   template <int L>
-  KOKKOS_FORCEINLINE_FUNCTION void prepare(const index_t p, Lanes<L>& lanes, int l) const {
+  struct NodeVectorLanes {
+    real_t value[L][W], along_y[L][W], across[L][W];
+  };
+  template <int L>
+  using Lanes = std::conditional_t<into_window, NodeVectorLanes<L>, ColumnLanes<L>>;
+  template <int L>
+  KOKKOS_FORCEINLINE_FUNCTION void prepare(const index_t p, ColumnLanes<L>& lanes, int l) const {
     value_functor(p, lanes.value[l]);
     vector_functor(p, lanes.vector[l]);
   }
+  template <int L>
+  KOKKOS_FORCEINLINE_FUNCTION void prepare(const index_t p, NodeVectorLanes<L>& lanes, int l) const {
+    real_t value[NV];
+    real_t vector[ND][2];
+    value_functor(p, value);
+    vector_functor(p, vector);
+    node_vectors(value, vector, lanes.value[l], lanes.along_y[l], lanes.across[l]);
+  }
   template <class StencilType, int L>
-  KOKKOS_FORCEINLINE_FUNCTION void add_prepared(const StencilType& s, const Lanes<L>& lanes, int l) const {
+  KOKKOS_FORCEINLINE_FUNCTION void add_prepared(const StencilType& s, const ColumnLanes<L>& lanes, int l) const {
     add(s, lanes.value[l], lanes.vector[l]);
+  }
+  template <class StencilType, int L>
+  KOKKOS_FORCEINLINE_FUNCTION void add_prepared(const StencilType& s, const NodeVectorLanes<L>& lanes, int l) const {
+    add_node_vectors(s, lanes.value[l], lanes.along_y[l], lanes.across[l]);
+  }
+  // The same body adding into a thread's window (walk_tiles_staged).
+  using staged_body = P2GAndP2GDBody<NodeMajorWindow, ValueFunctor, VectorFunctor>;
+  KOKKOS_INLINE_FUNCTION staged_body staged_in(const NodeMajorWindow& window) const {
+    return {window, first_value_component, value_functor, first_vector_component, vector_functor};
+  }
+  // The node fields' columns it writes: [first_written_column(), end_written_column()).
+  int first_written_column() const {
+    return first_value_component < first_vector_component ? first_value_component : first_vector_component;
+  }
+  int end_written_column() const {
+    return first_value_component + NV > first_vector_component + ND ? first_value_component + NV
+                                                                     : first_vector_component + ND;
   }
   template <class StencilType>
   KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&value)[NV],
                                        const real_t (&vector)[ND][2]) const {
+    add(s, value, vector, std::integral_constant<bool, into_window>());
+  }
+  template <class StencilType>
+  KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&value)[NV],
+                                       const real_t (&vector)[ND][2], std::true_type) const {
+    real_t node_value[W], along_y[W], across[W];
+    node_vectors(value, vector, node_value, along_y, across);
+    add_node_vectors(s, node_value, along_y, across);
+  }
+  KOKKOS_FORCEINLINE_FUNCTION void node_vectors(const real_t (&value)[NV], const real_t (&vector)[ND][2],
+                                                real_t (&node_value)[W], real_t (&along_y)[W],
+                                                real_t (&across)[W]) const {
+    for (int c = 0; c < W; ++c) node_value[c] = along_y[c] = across[c] = 0;
+    const int fv = first_value_component - scatter.first_component;
+    const int fd = first_vector_component - scatter.first_component;
+    for (int c = 0; c < NV; ++c) node_value[fv + c] = value[c];
+    for (int c = 0; c < ND; ++c) {
+      along_y[fd + c] = vector[c][1];
+      across[fd + c] = vector[c][0];
+    }
+  }
+  template <class StencilType>
+  KOKKOS_FORCEINLINE_FUNCTION void add_node_vectors(const StencilType& s, const real_t (&node_value)[W],
+                                                    const real_t (&along_y)[W], const real_t (&across)[W]) const {
+    constexpr int K = StencilType::width;
+    for (int b = 0; b < K; ++b) {
+      real_t along[W], across_b[W];  // the row's wy[b] F + gy[b] G_y and wy[b] G_x
+      const real_t wy = s.wy[b], gy = s.gy[b];
+      for (int c = 0; c < W; ++c) {
+        along[c] = wy * node_value[c] + gy * along_y[c];
+        across_b[c] = wy * across[c];
+      }
+      for (int a = 0; a < K; ++a) {
+        real_t* node = scatter.node(s.node(a, b));
+        const real_t wx = s.wx[a], gx = s.gx[a];
+        MPMFLOW_VECTORISE
+        for (int c = 0; c < W; ++c) node[c] += wx * along[c] + gx * across_b[c];
+      }
+    }
+  }
+  template <class StencilType>
+  KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&value)[NV],
+                                       const real_t (&vector)[ND][2], std::false_type) const {
     constexpr int K = StencilType::width;
     const auto& access = scatter.access();
     for (int b = 0; b < K; ++b) {

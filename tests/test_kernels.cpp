@@ -144,6 +144,17 @@ struct ConstantStressTimesVolume {  // G = s M (1, 0) and s M (0, 1), as the int
   }
 };
 
+struct VaryingVectors {  // G_c = M (1 + c + x, 2 - c y): every component differs from particle to particle
+  static constexpr int num_components = 2;
+  RealView mass, x, y;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2][2]) const {
+    for (int c = 0; c < 2; ++c) {
+      v[c][0] = mass(p) * (1 + c + x(p));
+      v[c][1] = mass(p) * (2 - c * y(p));
+    }
+  }
+};
+
 struct NodeColumnsRatio {  // node value = fields(i, 1) / fields(i, 0)
   static constexpr int num_components = 1;
   NodeFieldsView fields;
@@ -736,6 +747,58 @@ void expect_coloured_runs_match_the_reference() {
 TEST(ColouredTiles, ConsecutiveAndListedBatchesGiveTheReferenceSums) {
   expect_coloured_runs_match_the_reference<MakeLinear>();
   expect_coloured_runs_match_the_reference<MakeGimp>();
+}
+
+// The sorted P2G of values and vectors together (P2GAndP2GDBody: the step's mass, momentum and
+// force) on CPUs adds each tile's particles into a node-major window of its thread's, then the
+// window into the node fields (walk_tiles_staged); with its columns further apart than a window
+// is wide, straight into the node fields (walk_tiles). Either way the reference traversal's sums,
+// to round-off, and nothing in the columns between: particles in cell order, every fifth moved a
+// cell row up (consecutive and listed batches), 3 rows of tiles, the last column of tiles partial.
+template <class Make>
+void expect_staged_p2g_matches_the_reference(int first_vector_column) {
+  GridGeometry g = test_grid();
+  g.nodes_y = 3 * smallest_walk_tile.y + 3;
+  HostParticles h = regular_particles(g, 3);
+  for (size_t k = 0; k < h.y.size(); k += 5)
+    if (h.y[k] + g.spacing_y < g.node_y(g.cells_y() - 1)) h.y[k] += g.spacing_y;
+  const DeviceParticles d = to_device(g, h);
+  const auto shape = Make::make(g, d.count);
+  const auto t = ColouredTraversal<Coloured>::of(g, d);
+  const MassAndLinearField values{d.mass, d.where.x, d.where.y};
+  const VaryingVectors vectors{d.mass, d.where.x, d.where.y};
+  const int columns = first_vector_column + 2;
+  NodeFieldsView staged("staged", g.num_nodes(), columns), reference("reference", g.num_nodes(), columns);
+  DirectNodeAccess direct{staged};
+  p2g_and_p2gd("test_staged", shape, d.where, t.cells, direct, 0, values, first_vector_column, vectors);
+  NodeScatterView<Atomic> scatter(reference);
+  p2g_begin(scatter, reference);
+  p2g_and_p2gd("test_reference", shape, d.where, d.count, scatter, 0, values, first_vector_column, vectors);
+  p2g_end(scatter, reference);
+  auto c = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), staged);
+  auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
+  for (int k = 0; k < columns; ++k) {
+    const bool written = k < 2 || k >= first_vector_column;
+    double largest = 0;
+    for (int i = 0; i < g.num_nodes(); ++i) largest = std::max(largest, std::fabs(r(i, k)));
+    if (written) ASSERT_GT(largest, 0) << "column " << k;
+    for (int i = 0; i < g.num_nodes(); ++i) {
+      if (written)
+        EXPECT_NEAR(c(i, k), r(i, k), 1e-13 * largest) << "node " << i << ", column " << k;
+      else
+        EXPECT_EQ(c(i, k), 0) << "node " << i << ", column " << k;
+    }
+  }
+}
+TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
+  using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearField, VaryingVectors>;
+  static_assert(StagesInWindow<Body>::value, "the step's P2G stages its tiles on CPUs");
+  for (int first_vector_column : {2, 3, NodeMajorWindow::width + 1}) {  // in a window (2, 3: a gap), or not
+    SCOPED_TRACE(first_vector_column);
+    expect_staged_p2g_matches_the_reference<MakeLinear>(first_vector_column);
+    expect_staged_p2g_matches_the_reference<MakeGimp>(first_vector_column);
+    expect_staged_p2g_matches_the_reference<MakeBSpline>(first_vector_column);
+  }
 }
 
 // select_indices, with a buffer kept from call to call and without: the selected indices of
