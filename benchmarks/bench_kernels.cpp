@@ -147,6 +147,13 @@ struct Run {
   std::uint64_t peak_bytes = 0;      // all Kokkos allocations while building it and stepping
 };
 
+// A row's label, with the strategy numerics/p2g = automatic took (the solver's choice).
+std::string label_of(const Run& run) {
+  const std::string label = run.spec.label();
+  if (run.spec.p2g != "automatic") return label;
+  return label + " (" + to_string(run.solver->p2g_strategy()) + ")";
+}
+
 // After a row's steps: the mean particle count over them (from the solver's particle-steps) and
 // the allocation peak so far (the particle Views grow as the shock layer fills up).
 void observe_steps(Run& run, long long particle_steps_before, long steps) {
@@ -271,7 +278,7 @@ void BM_Kernel(benchmark::State& state, RunSpec spec, Phase phase) {
   state.counters["model_B_per_particle"] = phase_bytes(phase, run) / run.particles;
   state.counters["particles"] = run.particles;
   state.counters["cells"] = run.cells;
-  state.SetLabel(run.spec.label());
+  state.SetLabel(label_of(run));
 }
 
 // The whole step (time step, all phases, reordering when due).
@@ -303,7 +310,7 @@ void BM_Step(benchmark::State& state, RunSpec spec) {
   // The particle Views' capacity (spare room included) per particle in use.
   state.counters["particle_B_per_particle"] = double(memory.particle_bytes) / solver.particles().count;
   state.counters["grid_B_per_node"] = double(memory.grid_bytes + memory.scatter_copy_bytes) / run.nodes;
-  state.SetLabel(run.spec.label());
+  state.SetLabel(label_of(run));
 }
 
 std::vector<long> parse_cells(const std::string& list) {

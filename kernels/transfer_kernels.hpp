@@ -371,6 +371,15 @@ inline TileExtent walk_tile_for(index_t cells_x, index_t cells_y) {
   return smallest_walk_tile;
 }
 
+// Whether the walk keeps `threads` threads busy on a grid of cells_x x cells_y cells: each colour's
+// pass holds at least two tiles a thread (taken as threads come free, walk_tiles), so that
+// numerics/p2g = automatic can take the sorted P2G on CPUs (transfers.cpp). Its tiles are chosen
+// by the grid alone, so a small grid, or a CPU of many threads, leaves threads idle in each pass.
+inline bool walk_keeps_threads_busy(index_t cells_x, index_t cells_y, int threads) {
+  const index_t tiles = num_tiles(cells_x, cells_y, walk_tile_for(cells_x, cells_y));
+  return tiles / 4 >= 2 * static_cast<index_t>(threads);
+}
+
 // Each cell's tile of `extent` cells, tiles numbered row of tiles by row of tiles (ColouredTiles' grouping).
 inline IndexView tile_of_each_cell(index_t cells_x, index_t cells_y, TileExtent extent) {
   IndexView tile(Kokkos::view_alloc(Kokkos::WithoutInitializing, "tile_of_cell"), cells_x * cells_y);

@@ -673,6 +673,18 @@ TEST(TileOrder, TakesTheLargestTileThatLeavesEnoughTiles) {
     }
 }
 
+// numerics/p2g = automatic takes the sorted walk on CPUs where each colour has at least two tiles a
+// thread: at 448 x 224 cells (56 tiles of 128 x 16, 14 a colour) up to 7 threads; a 100 x 1 grid
+// (2 tiles of 64 x 4) none.
+TEST(TileOrder, TheWalkKeepsThreadsBusyWithTwoTilesAThreadInEachColour) {
+  EXPECT_TRUE(walk_keeps_threads_busy(448, 224, 1));
+  EXPECT_TRUE(walk_keeps_threads_busy(448, 224, 7));
+  EXPECT_FALSE(walk_keeps_threads_busy(448, 224, 8));
+  EXPECT_FALSE(walk_keeps_threads_busy(100, 1, 1));
+  EXPECT_TRUE(walk_keeps_threads_busy(1024, 512, 32));  // 8 x 32 tiles of 128 x 16, 64 a colour
+  EXPECT_FALSE(walk_keeps_threads_busy(1024, 512, 33));
+}
+
 // Grouped by tile (the coloured traversal's on CPUs): each tile's particles, those of its cells,
 // in index order; tiles numbered row of tiles by row of tiles. A grid of 3 x 3 tiles (of the
 // smallest extent: too few for a larger one), the last row and column of them partial.

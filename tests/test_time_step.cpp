@@ -6,12 +6,14 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "gas_physics.hpp"
 #include "particles.hpp"
 #include "solver.hpp"
 #include "transfers.hpp"
+#include "kernels/transfer_kernels.hpp"
 
 namespace mpmflow {
 namespace {
@@ -84,6 +86,30 @@ TEST(TimeStep, TheP2GCountsTheParticlesInDoubtOfItsOwnPass) {
     set_density(density);
     transfers->p2g_mass_momentum_force(pt);
     EXPECT_EQ(transfers->particles_in_doubt(), 0) << "the count of an earlier pass stayed";
+  }
+}
+
+// numerics/p2g = automatic: on CPUs the sorted P2G where its walk keeps the threads busy (the
+// cylinder's 448 x 224 cells on these tests' 1 or 2 threads), else duplicated (Sod's 100 x 1);
+// atomic on GPUs.
+TEST(TimeStep, AutomaticP2GTakesTheSortedWalkWhereItKeepsTheThreadsBusy) {
+  CaseConfig sod = sod_case();
+  CaseConfig wide = sod;
+  wide.domain.cells_x = 448;
+  wide.domain.cells_y = 224;
+  for (const CaseConfig& config : {sod, wide}) {
+    ASSERT_EQ(config.numerics.p2g, P2GStrategy::automatic);
+    const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+    GridFields fields(slab.geometry);
+    const auto transfers = make_transfer_kernels(config, slab.geometry, fields);
+    const bool busy = walk_keeps_threads_busy(slab.geometry.cells_x(), slab.geometry.cells_y(),
+                                              ExecutionSpace().concurrency());
+    const P2GStrategy expected = !std::is_same<MemorySpace, Kokkos::HostSpace>::value ? P2GStrategy::atomic
+                                 : busy                                                ? P2GStrategy::sorted
+                                                                                       : P2GStrategy::duplicated;
+    EXPECT_EQ(transfers->strategy(), expected) << config.domain.cells_x << " x " << config.domain.cells_y;
+    if (std::is_same<MemorySpace, Kokkos::HostSpace>::value && ExecutionSpace().concurrency() <= 7)
+      EXPECT_EQ(transfers->strategy(), config.domain.cells_y > 1 ? P2GStrategy::sorted : P2GStrategy::duplicated);
   }
 }
 
