@@ -717,18 +717,32 @@ TEST(TileOrder, GroupsParticlesByTileInIndexOrder) {
   for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
 }
 
+// A grid of 3 rows of tiles, and particles in cell order of which every fifth was then moved a
+// cell row up (into the next tile where it crosses a tile's edge): tiles holding runs of
+// consecutive particles and listed ones, as the coloured traversal meets them once particles move.
+struct TilesOfMovedParticles {
+  GridGeometry g;
+  DeviceParticles d;
+  TilesOfMovedParticles() : g(three_rows_of_tiles()), d(to_device(g, moved_up(g, regular_particles(g, 3)))) {}
+  static GridGeometry three_rows_of_tiles() {
+    GridGeometry g = test_grid();
+    g.nodes_y = 3 * smallest_walk_tile.y + 3;
+    return g;
+  }
+  static HostParticles moved_up(const GridGeometry& g, HostParticles h) {
+    for (size_t k = 0; k < h.y.size(); k += 5)
+      if (h.y[k] + g.spacing_y < g.node_y(g.cells_y() - 1)) h.y[k] += g.spacing_y;
+    return h;
+  }
+};
+
 // The coloured traversal on CPUs takes a batch of consecutive particles as such and another as
-// listed: particles in cell order, every fifth of them then moved a cell row up (into the next
-// tile where it crosses a tile's edge), so that the tiles hold both. Either way the sums are the
-// reference traversal's, to round-off.
+// listed (TilesOfMovedParticles). Either way the sums are the reference traversal's, to round-off.
 template <class Make>
 void expect_coloured_runs_match_the_reference() {
-  GridGeometry g = test_grid();
-  g.nodes_y = 3 * smallest_walk_tile.y + 3;  // 3 rows of tiles
-  HostParticles h = regular_particles(g, 3);
-  for (size_t k = 0; k < h.y.size(); k += 5)
-    if (h.y[k] + g.spacing_y < g.node_y(g.cells_y() - 1)) h.y[k] += g.spacing_y;
-  const DeviceParticles d = to_device(g, h);
+  const TilesOfMovedParticles moved;
+  const GridGeometry& g = moved.g;
+  const DeviceParticles& d = moved.d;
   const auto shape = Make::make(g, d.count);
   const auto t = ColouredTraversal<Coloured>::of(g, d);
   // Both kinds of batch, as walk_tiles makes them.
@@ -765,16 +779,13 @@ TEST(ColouredTiles, ConsecutiveAndListedBatchesGiveTheReferenceSums) {
 // force) on CPUs adds each tile's particles into a node-major window of its thread's, then the
 // window into the node fields (walk_tiles_staged); with its columns further apart than a window
 // is wide, straight into the node fields (walk_tiles). Either way the reference traversal's sums,
-// to round-off, and nothing in the columns between: particles in cell order, every fifth moved a
-// cell row up (consecutive and listed batches), 3 rows of tiles, the last column of tiles partial.
+// to round-off, and nothing in the columns between (TilesOfMovedParticles: consecutive and listed
+// batches; the last column of tiles partial).
 template <class Make>
 void expect_staged_p2g_matches_the_reference(int first_vector_column) {
-  GridGeometry g = test_grid();
-  g.nodes_y = 3 * smallest_walk_tile.y + 3;
-  HostParticles h = regular_particles(g, 3);
-  for (size_t k = 0; k < h.y.size(); k += 5)
-    if (h.y[k] + g.spacing_y < g.node_y(g.cells_y() - 1)) h.y[k] += g.spacing_y;
-  const DeviceParticles d = to_device(g, h);
+  const TilesOfMovedParticles moved;
+  const GridGeometry& g = moved.g;
+  const DeviceParticles& d = moved.d;
   const auto shape = Make::make(g, d.count);
   const auto t = ColouredTraversal<Coloured>::of(g, d);
   const MassAndLinearField values{d.mass, d.where.x, d.where.y};
