@@ -371,8 +371,8 @@ inline TileExtent walk_tile_for(index_t cells_x, index_t cells_y) {
   return smallest_walk_tile;
 }
 
-// Whether the walk keeps `threads` threads busy on a grid of cells_x x cells_y cells: each colour's
-// pass holds at least two tiles a thread (taken as threads come free, walk_tiles), so that
+// Whether the walk keeps `threads` threads busy on a grid of cells_x x cells_y cells: a colour's pass
+// (a quarter of the tiles) holds at least two tiles a thread (taken as threads come free), so that
 // numerics/p2g = automatic can take the sorted P2G on CPUs (transfers.cpp). Its tiles are chosen
 // by the grid alone, so a small grid, or a CPU of many threads, leaves threads idle in each pass.
 inline bool walk_keeps_threads_busy(index_t cells_x, index_t cells_y, int threads) {
