@@ -598,7 +598,10 @@ struct StagesInWindow<Body, std::void_t<decltype(std::declval<const Body&>().sta
 // particles added into it as walk_tiles adds them into the node fields, then added to the node
 // fields once. The window holds whole rows of nodes (row stride nodes_x, so that a stencil's node
 // n is the window's row n - base), of which the tile's reach is used: tile.x + 2 r - 1 by
-// tile.y + 2 r - 1 nodes from (ci_begin - r + 1, cj_begin - r + 1), r = colour_period / 2.
+// tile.y + 2 r - 1 nodes from (ci_begin - r + 1, cj_begin - r + 1), r = colour_period / 2. Its
+// last row reaches window_x nodes past its start, which is more than nodes_x where the reach starts
+// left of the grid (i0 < 0) on a grid narrower than the reach: so window_y - 1 whole rows and
+// window_x nodes.
 template <class Shape, class Body>
 void walk_tiles_staged(const char* label, const Shape& shape, const ParticleLocations& particles,
                        const ColouredTiles& tiled, const Body& body) {
@@ -609,7 +612,7 @@ void walk_tiles_staged(const char* label, const Shape& shape, const ParticleLoca
   const auto cell = particles.cell;
   const index_t nodes_x = shape.grid.geometry.nodes_x, nodes_y = shape.grid.geometry.nodes_y;
   const index_t window_x = tiled.tile.x + 2 * r - 1, window_y = tiled.tile.y + 2 * r - 1;
-  const size_t window_bytes = size_t(nodes_x * window_y) * W * sizeof(real_t);
+  const size_t window_bytes = size_t(nodes_x * (window_y - 1) + window_x) * W * sizeof(real_t);
   const IndexView offset = tiled.tile_offset, order = tiled.particle;
   const NodeFieldsView target = body.scatter.target;
   const int first = body.first_written_column(), components = body.end_written_column() - first;
