@@ -462,6 +462,22 @@ KOKKOS_INLINE_FUNCTION TileBatch next_tile_batch(const index_t* order, index_t s
   return run >= min_consecutive_batch ? TileBatch{run, true} : TileBatch{count, false};
 }
 
+// A tile's listed particles order[begin, end), batch by batch as next_tile_batch cuts them.
+template <class Shape, class Body>
+KOKKOS_INLINE_FUNCTION void run_tile_batches(const Shape& shape, const Body& body, const index_t* order, index_t begin,
+                                             index_t end, const index_t* cell, const real_t* x, const real_t* y,
+                                             index_t row_stride) {
+  constexpr int L = stencil_batch_size;
+  for (index_t s = begin; s < end;) {
+    const TileBatch batch = next_tile_batch(order, s, end);
+    if (batch.consecutive)
+      run_batch<L>(shape, body, ConsecutiveParticles{order[s]}, batch.count, cell, x, y, row_stride);
+    else
+      run_batch<L>(shape, body, ListedParticles{order + s}, batch.count, cell, x, y, row_stride);
+    s += batch.count;
+  }
+}
+
 // One thread per tile (the CPU path): the tile's particles in index order, in the batches of
 // next_tile_batch.
 template <class Shape, class Body>
@@ -485,17 +501,7 @@ void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& 
           const index_t t = tiles.tile_number(k);
           const index_t begin = offset(t), end = offset(t + 1);
           if (batched) {
-            constexpr int L = stencil_batch_size;
-            for (index_t s = begin; s < end;) {
-              const TileBatch batch = next_tile_batch(order.data(), s, end);
-              if (batch.consecutive)
-                run_batch<L>(shape, body, ConsecutiveParticles{order(s)}, batch.count, cell.data(), x.data(),
-                             y.data(), row_stride);
-              else
-                run_batch<L>(shape, body, ListedParticles{order.data() + s}, batch.count, cell.data(), x.data(),
-                             y.data(), row_stride);
-              s += batch.count;
-            }
+            run_tile_batches(shape, body, order.data(), begin, end, cell.data(), x.data(), y.data(), row_stride);
           } else {
             for (index_t s = begin; s < end; ++s) {
               const index_t p = order(s);
@@ -639,18 +645,8 @@ void walk_tiles_staged(const char* label, const Shape& shape, const ParticleLoca
           real_t* node = window.node(i + nodes_x * j);
           for (int c = 0; c < W; ++c) node[c] = 0;
         }
-      const auto local = body.staged_in(window);
-      constexpr int L = stencil_batch_size;
-      for (index_t s = offset(t); s < offset(t + 1);) {
-        const TileBatch batch = next_tile_batch(order.data(), s, offset(t + 1));
-        if (batch.consecutive)
-          run_batch<L>(shape, local, ConsecutiveParticles{order(s)}, batch.count, cell.data(), x.data(), y.data(),
-                       nodes_x);
-        else
-          run_batch<L>(shape, local, ListedParticles{order.data() + s}, batch.count, cell.data(), x.data(), y.data(),
-                       nodes_x);
-        s += batch.count;
-      }
+      run_tile_batches(shape, body.staged_in(window), order.data(), offset(t), offset(t + 1), cell.data(), x.data(),
+                       y.data(), nodes_x);
       for (index_t j = j_begin; j < j_end; ++j)
         for (int c = 0; c < components; ++c)
           for (index_t i = i_begin; i < i_end; ++i) target(i + nodes_x * j, first + c) += window.node(i + nodes_x * j)[c];
@@ -962,18 +958,6 @@ struct P2GAndP2GDBody {
     return first_value_component + NV > first_vector_component + ND ? first_value_component + NV
                                                                      : first_vector_component + ND;
   }
-  template <class StencilType>
-  KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&value)[NV],
-                                       const real_t (&vector)[ND][2]) const {
-    add(s, value, vector, std::integral_constant<bool, into_window>());
-  }
-  template <class StencilType>
-  KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&value)[NV],
-                                       const real_t (&vector)[ND][2], std::true_type) const {
-    real_t node_value[W], along_y[W], across[W];
-    node_vectors(value, vector, node_value, along_y, across);
-    add_node_vectors(s, node_value, along_y, across);
-  }
   KOKKOS_FORCEINLINE_FUNCTION void node_vectors(const real_t (&value)[NV], const real_t (&vector)[ND][2],
                                                 real_t (&node_value)[W], real_t (&along_y)[W],
                                                 real_t (&across)[W]) const {
@@ -1005,9 +989,11 @@ struct P2GAndP2GDBody {
       }
     }
   }
+  // Column by column (into a window too, through its operator(): its batches take the node vectors
+  // above).
   template <class StencilType>
   KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&value)[NV],
-                                       const real_t (&vector)[ND][2], std::false_type) const {
+                                       const real_t (&vector)[ND][2]) const {
     constexpr int K = StencilType::width;
     const auto& access = scatter.access();
     for (int b = 0; b < K; ++b) {

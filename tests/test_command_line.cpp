@@ -24,9 +24,8 @@ struct CommandResult {
   std::string output;  // stdout and stderr together
 };
 
-CommandResult run_mpmflow(const std::string& arguments, const fs::path& directory) {
-  const std::string command =
-      "cd '" + directory.string() + "' && '" + std::string(MPMFLOW_BINARY) + "' " + arguments + " 2>&1";
+// A shell command's exit code and output (exit code -1 when it could not be started).
+CommandResult run_command(const std::string& command) {
   CommandResult result;
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return result;
@@ -35,6 +34,10 @@ CommandResult run_mpmflow(const std::string& arguments, const fs::path& director
   const int status = pclose(pipe);
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
+}
+
+CommandResult run_mpmflow(const std::string& arguments, const fs::path& directory) {
+  return run_command("cd '" + directory.string() + "' && '" + std::string(MPMFLOW_BINARY) + "' " + arguments + " 2>&1");
 }
 
 std::string read_text(const fs::path& path) {
@@ -88,16 +91,8 @@ TEST_F(CommandLine, VersionNamesKokkosAndExecutionSpace) {
 // The banner names the commit the sources are at now, not the one the build folder was configured
 // at: the build rewrites it whenever it changed (cmake/MpmflowBuildCommit.cmake).
 TEST_F(CommandLine, VersionNamesTheCommitOfTheSources) {
-  CommandResult git;
-  {
-    const std::string command = "git -C '" + std::string(MPMFLOW_SOURCE_DIR) + "' describe --always --dirty 2>/dev/null";
-    FILE* pipe = popen(command.c_str(), "r");
-    ASSERT_NE(pipe, nullptr);
-    char buffer[256];
-    while (size_t n = fread(buffer, 1, sizeof buffer, pipe)) git.output.append(buffer, n);
-    const int status = pclose(pipe);
-    git.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  }
+  const CommandResult git =
+      run_command("git -C '" + std::string(MPMFLOW_SOURCE_DIR) + "' describe --always --dirty 2>/dev/null");
   if (git.exit_code != 0 || git.output.empty()) GTEST_SKIP() << "the sources are not a git checkout";
   const std::string commit = git.output.substr(0, git.output.find_last_not_of("\n") + 1);
   EXPECT_EQ(std::string(mpmflow::build_commit()), commit) << "built from other sources: rebuild";
