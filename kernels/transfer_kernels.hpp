@@ -118,20 +118,64 @@ struct DirectNodeAccess {
   KOKKOS_INLINE_FUNCTION real_t& operator()(index_t node, int component) const { return target(node, component); }
 };
 
-// A thread's window on a tile's nodes (the CPU walk, walk_tiles_staged): node by node, the node's
-// `width` columns together, so that what a particle adds to a node is one vector addition, not a
-// scalar one per column. Node n (a node of the grid, within the window) at row n - base.
-struct NodeMajorWindow {
-  static constexpr int width = 8;  // columns a node holds: one AVX-512 vector of doubles
+// A thread's window on a tile's nodes (the CPU walks, walk_tiles_staged and
+// walk_tiles_through_windows): node by node, the node's W columns together, so that what a
+// particle adds to a node, or reads from it, is one vector operation, not a scalar one per column.
+// Node n (a node of the grid, within the window) at row n - base.
+template <int W>
+struct NodeMajorWindowOf {
+  static constexpr int width = W;
   real_t* data;
   index_t base;
   int first_component;  // the node fields' column of the window's column 0
-  KOKKOS_INLINE_FUNCTION const NodeMajorWindow& access() const { return *this; }
-  KOKKOS_INLINE_FUNCTION real_t* node(index_t n) const { return data + (n - base) * width; }
+  KOKKOS_INLINE_FUNCTION const NodeMajorWindowOf& access() const { return *this; }
+  KOKKOS_INLINE_FUNCTION real_t* node(index_t n) const { return data + (n - base) * W; }
   KOKKOS_INLINE_FUNCTION real_t& operator()(index_t n, int component) const {
     return node(n)[component - first_component];
   }
 };
+template <class Access>
+struct IsNodeMajorWindow : std::false_type {};
+template <int W>
+struct IsNodeMajorWindow<NodeMajorWindowOf<W>> : std::true_type {};
+// 8 columns: one AVX-512 vector of doubles (P2G's seven, G2PD's five).
+using NodeMajorWindow = NodeMajorWindowOf<8>;
+// The width of a window for `columns` columns: 2, 4 or 8 (a vector of 128, 256 or 512 bits).
+constexpr int window_width_for(int columns) { return columns <= 2 ? 2 : columns <= 4 ? 4 : 8; }
+
+// G2P node functor reading columns [first_column, first_column + N) of a (node, column) View, as
+// they are (the solver's: node values per unit mass, divided by the node mass once per node on the
+// grid, not per particle in the kernel as the paper's theta functor does: grid_phases.hpp).
+template <int N>
+struct NodeColumns {
+  static constexpr int num_components = N;
+  NodeFieldsView fields;
+  int first_column;
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t node, real_t (&value)[N]) const {
+    for (int c = 0; c < N; ++c) value[c] = fields(node, first_column + c);
+  }
+};
+
+template <class NodeFunctor>
+struct IsNodeColumns : std::false_type {};
+template <int N>
+struct IsNodeColumns<NodeColumns<N>> : std::true_type {};
+
+// The same columns copied into a thread's window (walk_tiles_through_windows): a node's N values
+// side by side, the first N of the window's W.
+template <int N, int W>
+struct WindowColumns {
+  static constexpr int num_components = N;
+  NodeMajorWindowOf<W> window;
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t node, real_t (&value)[N]) const {
+    const real_t* columns = window.node(node);
+    for (int c = 0; c < N; ++c) value[c] = columns[c];
+  }
+};
+template <class NodeFunctor>
+struct IsWindowColumns : std::false_type {};
+template <int N, int W>
+struct IsWindowColumns<WindowColumns<N, W>> : std::true_type {};
 
 // The coloured traversal writes in place: nothing to prepare or combine.
 inline void p2g_begin(DirectNodeAccess&, const NodeFieldsView&) {}
@@ -654,6 +698,103 @@ void walk_tiles_staged(const char* label, const Shape& shape, const ParticleLoca
   }
 }
 
+// A body that reads its nodes through a thread's window, marked by a member reads_through_window =
+// true: one that reads node columns (NodeColumns: the first window_columns_read of the window's
+// window_columns) and writes its particle (G2PAndG2PDBody), or besides adds into node columns
+// (G2PThenP2GBody, through DirectNodeAccess: the window's next columns); body.through(window) is
+// the same body reading (and adding into) the window.
+template <class Body, class = void>
+struct ReadsThroughWindow : std::false_type {};
+template <class Body>
+struct ReadsThroughWindow<Body, std::void_t<decltype(Body::reads_through_window)>>
+    : std::integral_constant<bool, Body::reads_through_window> {};
+
+// All tiles in one pass, for a body that writes nothing two tiles share (as TileColour gives one
+// colour's).
+struct AllTiles {
+  index_t count;
+  KOKKOS_INLINE_FUNCTION index_t tile_number(index_t k) const { return k; }
+  index_t tiles() const { return count; }
+};
+
+// The tiles of `tiles` (AllTiles or a TileColour), a thread each, each tile's nodes first copied
+// into a window of the thread's, node by node: the node columns the body reads, then zeros (the
+// columns it adds into, and the rest of the width); its particles then read them from there
+// (body.through(window)); the columns added into are then added into the node fields. The window
+// covers the tile's reach as walk_tiles_staged's does.
+template <int W, class Shape, class Body, class Tiles>
+void walk_tiles_in_windows(const char* label, const Shape& shape, const ParticleLocations& particles,
+                           const ColouredTiles& tiled, const Tiles& tiles, const Body& body,
+                           const NodeFieldsView& written, int first_written) {
+  constexpr int read = Body::window_columns_read, added = Body::window_columns - read;
+  constexpr index_t r = Shape::colour_period / 2;
+  const auto x = particles.x;
+  const auto y = particles.y;
+  const auto cell = particles.cell;
+  const index_t nodes_x = shape.grid.geometry.nodes_x, nodes_y = shape.grid.geometry.nodes_y;
+  const index_t window_x = tiled.tile.x + 2 * r - 1, window_y = tiled.tile.y + 2 * r - 1;
+  const size_t window_bytes = size_t(nodes_x * (window_y - 1) + window_x) * W * sizeof(real_t);
+  const TileExtent tile = tiled.tile;
+  const index_t tiles_x = tiles_along_x(tiled.cells_x, tile);
+  const IndexView offset = tiled.tile_offset, order = tiled.particle;
+  const NodeFieldsView source = body.node_functor.fields;
+  const int first_read = body.node_functor.first_column;
+  using Policy = Kokkos::TeamPolicy<ExecutionSpace, Kokkos::Schedule<Kokkos::Dynamic>>;
+  using Team = typename Policy::member_type;
+  Policy policy(tiles.tiles(), 1);
+  policy.set_scratch_size(0, Kokkos::PerTeam(window_bytes));
+  Kokkos::parallel_for(label, policy, KOKKOS_LAMBDA(const Team& team) {
+    const index_t t = tiles.tile_number(team.league_rank());
+    if (offset(t) == offset(t + 1)) return;
+    const index_t i0 = (t % tiles_x) * tile.x - r + 1, j0 = (t / tiles_x) * tile.y - r + 1;
+    const index_t i_begin = i0 > 0 ? i0 : 0, j_begin = j0 > 0 ? j0 : 0;
+    const index_t i_end = i0 + window_x < nodes_x ? i0 + window_x : nodes_x;
+    const index_t j_end = j0 + window_y < nodes_y ? j0 + window_y : nodes_y;
+    const NodeMajorWindowOf<W> window{static_cast<real_t*>(team.team_scratch(0).get_shmem(window_bytes)),
+                                      i0 + nodes_x * j0, first_written - read};
+    for (index_t j = j_begin; j < j_end; ++j) {
+      for (int c = 0; c < read; ++c)
+        for (index_t i = i_begin; i < i_end; ++i)
+          window.node(i + nodes_x * j)[c] = source(i + nodes_x * j, first_read + c);
+      for (index_t i = i_begin; i < i_end; ++i)
+        for (int c = read; c < W; ++c) window.node(i + nodes_x * j)[c] = 0;
+    }
+    run_tile_batches(shape, body.through(window), order.data(), offset(t), offset(t + 1), cell.data(), x.data(),
+                     y.data(), nodes_x);
+    for (index_t j = j_begin; j < j_end; ++j)
+      for (int c = 0; c < added; ++c)
+        for (index_t i = i_begin; i < i_end; ++i)
+          written(i + nodes_x * j, first_written + c) += window.node(i + nodes_x * j)[read + c];
+  });
+}
+
+// The tiles' particles of a body that reads its nodes through windows (CPUs): all tiles in one
+// pass where it only writes its particles (no colours: nothing two tiles write is shared), colour
+// by colour where it adds into nodes too.
+template <class Shape, class Body>
+void walk_tiles_through_windows(const char* label, const Shape& shape, const ParticleLocations& particles,
+                                const ColouredTiles& tiled, const Body& body) {
+  constexpr int W = window_width_for(Body::window_columns);
+  constexpr bool adds = Body::window_columns > Body::window_columns_read;
+  NodeFieldsView written;
+  int first_written = 0;
+  if constexpr (adds) {
+    written = body.scatter.target;
+    first_written = body.first_component;
+  }
+  if (!adds) {
+    walk_tiles_in_windows<W>(label, shape, particles, tiled,
+                             AllTiles{num_tiles(tiled.cells_x, tiled.cells_y, tiled.tile)}, body, written,
+                             first_written);
+    return;
+  }
+  for (int colour = 0; colour < 4; ++colour) {
+    const TileColour tiles(tiled.cells_x, tiled.cells_y, colour, tiled.tile);
+    if (tiles.tiles() > 0)
+      walk_tiles_in_windows<W>(label, shape, particles, tiled, tiles, body, written, first_written);
+  }
+}
+
 // A team of threads per tile (the GPU path): TeamTile.
 template <class Shape, class Body>
 void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLocations& particles,
@@ -694,6 +835,8 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
     walk_tiles_in_teams(label, shape, particles, coloured, body);
   else if constexpr (StagesInWindow<Body>::value && std::is_same<MemorySpace, Kokkos::HostSpace>::value)
     walk_tiles_staged(label, shape, particles, coloured, body);
+  else if constexpr (ReadsThroughWindow<Body>::value && std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+    walk_tiles_through_windows(label, shape, particles, coloured, body);
   else
     walk_tiles(label, shape, particles, coloured, body);
 }
@@ -1065,7 +1208,41 @@ struct G2PThenP2GBody {
   }
   template <class StencilType, int L>
   KOKKOS_FORCEINLINE_FUNCTION void add_prepared(const StencilType& s, const Lanes<L>& lanes, int l) const {
-    accumulate(s, scatter.access(), first_component, lanes.out[l]);
+    add(s, lanes.out[l], IsNodeMajorWindow<Access>());
+  }
+  template <class StencilType>
+  KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&out)[M], std::false_type) const {
+    accumulate(s, scatter.access(), first_component, out);
+  }
+  // Into a window: accumulate's operations in its order, a node's M columns as one vector (GCC
+  // keeps them scalar through the window's operator()).
+  template <class StencilType>
+  KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&out)[M], std::true_type) const {
+    constexpr int K = StencilType::width;
+    const int column = first_component - scatter.first_component;
+    for (int b = 0; b < K; ++b) {
+      real_t row[M];  // out wy[b]
+      for (int c = 0; c < M; ++c) row[c] = out[c] * s.wy[b];
+      for (int a = 0; a < K; ++a) {
+        real_t* node = scatter.node(s.node(a, b)) + column;
+        const real_t wx = s.wx[a];
+        MPMFLOW_VECTORISE
+        for (int c = 0; c < M; ++c) node[c] += wx * row[c];
+      }
+    }
+  }
+  // The same body reading its node columns from a thread's window and adding into the window's next
+  // columns (walk_tiles_through_windows, ReadsThroughWindow): a node's reads one vector load, its
+  // additions one vector load, multiply-add and store, instead of a scalar one per column in
+  // columns 0.8 MB apart, and their address arithmetic.
+  static constexpr bool reads_through_window = IsNodeColumns<NodeFunctor>::value &&
+                                               std::is_same<Access, DirectNodeAccess>::value &&
+                                               gathers_then_finishes && N + M <= NodeMajorWindow::width;
+  static constexpr int window_columns_read = N, window_columns = N + M;
+  template <int W>
+  KOKKOS_INLINE_FUNCTION G2PThenP2GBody<WindowColumns<N, W>, ParticleUpdate, NodeMajorWindowOf<W>> through(
+      const NodeMajorWindowOf<W>& window) const {
+    return {{window}, update, window, first_component};
   }
 };
 
@@ -1142,16 +1319,32 @@ struct G2PAndG2PDBody {
   // with AVX-512; the same operations in the same order as interpolate_at); then the
   // sinks. The lanes' values are stored component by component, and handed to a sink that takes
   // them as they are (LaneValues, LaneGradients) or copied into arrays for one that does not.
+  //
+  // Reading a thread's window (WindowColumns, walk_tiles_through_windows), where a node's columns
+  // lie side by side: particle by particle, each node's columns as one vector of the window's
+  // width, a multiply-add of it per weight (the same operations in the same order), the results
+  // stored into the lanes for the sinks. Nine vector loads a GIMP particle instead of 45 scalar
+  // loads and stores, and their address arithmetic, which were half of G2PD's time.
+  static constexpr bool from_window = IsWindowColumns<NodeFunctor>::value;
   static constexpr bool gathers_then_finishes = WritesOnlyItsParticle<ParticleSink>::value;
-  static constexpr bool interpolates_in_lanes = true;
+  static constexpr bool interpolates_in_lanes = !from_window;
   template <int L>
-  struct Lanes {
+  struct ColumnLanes {
+    static constexpr int size = L;
     real_t node_value[N][K * K][L];  // node (a, b) of lane l's stencil at a + K b, component by component
     real_t value[N][L];
     real_t gradient[N][2][L];
   };
+  template <int L>
+  struct InterpolatedLanes {
+    static constexpr int size = L;
+    real_t value[N][L];
+    real_t gradient[N][2][L];
+  };
+  template <int L>
+  using Lanes = std::conditional_t<from_window, InterpolatedLanes<L>, ColumnLanes<L>>;
   template <class StencilType, int L>
-  KOKKOS_FORCEINLINE_FUNCTION void gather(const StencilType& s, Lanes<L>& lanes, int l) const {
+  KOKKOS_FORCEINLINE_FUNCTION void gather(const StencilType& s, ColumnLanes<L>& lanes, int l) const {
     static_assert(StencilType::width == K, "the body's stencil width is the shape's");
     for (int b = 0; b < K; ++b)
       for (int a = 0; a < K; ++a) {
@@ -1160,8 +1353,51 @@ struct G2PAndG2PDBody {
         for (int c = 0; c < N; ++c) lanes.node_value[c][a + K * b][l] = node_value[c];
       }
   }
+  template <class StencilType, int L>
+  KOKKOS_FORCEINLINE_FUNCTION void gather(const StencilType& s, InterpolatedLanes<L>& lanes, int l) const {
+    static_assert(StencilType::width == K, "the body's stencil width is the shape's");
+    constexpr int W = decltype(node_functor.window)::width;
+    real_t value[W], gradient_x[W], gradient_y[W];
+    for (int c = 0; c < W; ++c) value[c] = gradient_x[c] = gradient_y[c] = 0;
+    for (int b = 0; b < K; ++b) {
+      real_t row_w[W], row_g[W];
+      for (int c = 0; c < W; ++c) row_w[c] = row_g[c] = 0;
+      for (int a = 0; a < K; ++a) {
+        const real_t* node = node_functor.window.node(s.node(a, b));
+        const real_t wx = s.wx[a], gx = s.gx[a];
+        MPMFLOW_VECTORISE
+        for (int c = 0; c < W; ++c) {
+          row_w[c] += wx * node[c];
+          row_g[c] += gx * node[c];
+        }
+      }
+      const real_t wy = s.wy[b], gy = s.gy[b];
+      MPMFLOW_VECTORISE
+      for (int c = 0; c < W; ++c) {
+        value[c] += wy * row_w[c];
+        gradient_x[c] += wy * row_g[c];
+        gradient_y[c] += gy * row_w[c];
+      }
+    }
+    for (int c = 0; c < N; ++c) {
+      lanes.value[c][l] = value[c];
+      lanes.gradient[c][0][l] = gradient_x[c];
+      lanes.gradient[c][1][l] = gradient_y[c];
+    }
+  }
+  // The same body reading the node functor's columns from a thread's window, where they fit in it
+  // (walk_tiles_through_windows), and the sink writes only its particle (so that the tiles need no
+  // colours).
+  static constexpr bool reads_through_window =
+      IsNodeColumns<NodeFunctor>::value && WritesOnlyItsParticle<ParticleSink>::value && N <= NodeMajorWindow::width;
+  static constexpr int window_columns_read = N, window_columns = N;
+  template <int W>
+  KOKKOS_INLINE_FUNCTION G2PAndG2PDBody<WindowColumns<N, W>, ParticleSink, K> through(
+      const NodeMajorWindowOf<W>& window) const {
+    return {{window}, sink};
+  }
   template <class Batch, int L>
-  KOKKOS_FORCEINLINE_FUNCTION void interpolate_lanes(const Batch& batch, int count, Lanes<L>& lanes) const {
+  KOKKOS_FORCEINLINE_FUNCTION void interpolate_lanes(const Batch& batch, int count, ColumnLanes<L>& lanes) const {
     MPMFLOW_VECTORISE
     for (int l = 0; l < count; ++l) {
       real_t value[N], gradient_x[N], gradient_y[N];
@@ -1187,16 +1423,18 @@ struct G2PAndG2PDBody {
       }
     }
   }
-  template <int L>
-  KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const Lanes<L>& lanes, int l) const {
-    finish(p, lanes, l, TakesLanes<ParticleSink, L>());
+  // (LanesType: ColumnLanes<L> or InterpolatedLanes<L>.)
+  template <class LanesType>
+  KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const LanesType& lanes, int l) const {
+    finish(p, lanes, l, TakesLanes<ParticleSink, LanesType::size>());
   }
-  template <int L>
-  KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const Lanes<L>& lanes, int l, std::true_type) const {
+  template <class LanesType>
+  KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const LanesType& lanes, int l, std::true_type) const {
+    constexpr int L = LanesType::size;
     sink(p, LaneValues<L>{&lanes.value[0][l]}, LaneGradients<L>{&lanes.gradient[0][0][l]});
   }
-  template <int L>
-  KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const Lanes<L>& lanes, int l, std::false_type) const {
+  template <class LanesType>
+  KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const LanesType& lanes, int l, std::false_type) const {
     real_t value[N], gradient[N][2];
     for (int c = 0; c < N; ++c) {
       value[c] = lanes.value[c][l];

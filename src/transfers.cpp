@@ -211,18 +211,6 @@ struct CellAveragedInternalForce {
   }
 };
 
-// The G2P node functor: N adjacent columns of a View, read as they are (the paper's theta,
-// the division by the node mass, is done once per node on the grid: grid_phases.hpp).
-template <int N>
-struct NodeColumns {
-  static constexpr int num_components = N;
-  NodeFieldsView fields;
-  int first_column;
-  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t node, real_t (&value)[N]) const {
-    for (int c = 0; c < N; ++c) value[c] = fields(node, first_column + c);
-  }
-};
-
 // Sink of step 6-7: V updated with the interpolated acceleration (GridFields::acceleration_x, y).
 struct Accelerate {
   RealView velocity_x, velocity_y;
@@ -403,6 +391,8 @@ class ScatterAccumulation {
   void prepare(const ParticleState&, const GridGeometry&) {}
   // Batched stencils on CPUs (for_each_particle_stencil).
   ParticleBatches traversal(const ParticleState& particles) const { return ParticleBatches{particles.count}; }
+  // For a kernel that only reads nodes and writes its particle: the same.
+  ParticleBatches reading_traversal(const ParticleState& particles) const { return traversal(particles); }
   // Step 3 (and the pressure relaxation's cell sums).
   Access& state() { return state_; }
   // Step 8, the remap into the momentum columns (its column 0: momentum_x).
@@ -468,6 +458,17 @@ class ColouredAccumulation {
     traversal_ = group(order_, particles, grid);
   }
   const Traversal& traversal(const ParticleState&) const { return traversal_; }
+  // For a kernel that only reads nodes and writes its particle: on CPUs the tiles, each reading its
+  // nodes through a window (walk_tiles_through_windows); on GPUs all particles at once (the cells'
+  // teams would only cost it colours). (A template, defined before its use for its return type.)
+  template <class Grouped>
+  static auto reading(const Grouped& grouped, const ParticleState& particles) {
+    if constexpr (std::is_same<Grouped, ColouredTiles>::value)
+      return grouped;
+    else
+      return ParticleBatches{particles.count};
+  }
+  auto reading_traversal(const ParticleState& particles) const { return reading(traversal_, particles); }
   Access& state() { return state_; }
   Access& momentum() { return momentum_; }
   void end_momentum(const NodeFieldsView&) {}  // written in place
@@ -587,7 +588,7 @@ class Transfers final : public TransferKernels {
                                                           k.cell_size, k.viscosity_quadratic, k.viscosity_linear,
                                                           k.energy_consistent});
     } else {
-      g2p_and_g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), ParticleBatches{pt.count},
+      g2p_and_g2pd("g2pd_particle_update", current_shape(shape_, pt), pt.locations(), accumulation_.reading_traversal(pt),
                    MoveAndRemapVelocity{fields_.per_unit_mass, GridFields::velocity_x},
                    UpdateThermodynamics{advance(pt, dt), pt.density, pt.specific_energy, pt.artificial_viscosity,
                                         pt.domain_stretch_x, pt.domain_stretch_y, dt, k.gamma, k.cell_size,

@@ -824,6 +824,151 @@ TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
   }
 }
 
+// Node columns 0 .. columns - 1 that differ from one another and from node to node.
+NodeFieldsView varied_node_columns(const GridGeometry& g, int columns) {
+  NodeFieldsView nodal("nodal", g.num_nodes(), columns);
+  auto h = Kokkos::create_mirror_view(nodal);
+  for (int j = 0; j < g.nodes_y; ++j)
+    for (int i = 0; i < g.nodes_x; ++i)
+      for (int k = 0; k < columns; ++k)
+        h(g.node_index(i, j), k) = k + std::sin(0.7 * i + 1.3 * k) * std::cos(0.4 * j - k);
+  Kokkos::deep_copy(nodal, h);
+  return nodal;
+}
+
+// Components [0, N) of the interpolated values and gradients, into out(p, 3 c) (value), 3 c + 1 and
+// 3 c + 2 (gradient along x, y).
+template <int N>
+struct StoreValuesAndGradients {
+  using writes_only_its_particle = std::true_type;
+  NodeFieldsView out;
+  template <class Values, class Gradients>
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, Values v, Gradients g) const {
+    for (int c = 0; c < N; ++c) {
+      out(p, 3 * c) = v[c];
+      out(p, 3 * c + 1) = g[c][0];
+      out(p, 3 * c + 2) = g[c][1];
+    }
+  }
+};
+
+// The step's G2P and G2PD of N node columns on CPUs, with the particles grouped by tile: each
+// tile's nodes copied into a node-major window of its thread's, the particles reading them from
+// there (walk_tiles_through_windows). The reference traversal's values and gradients, to
+// round-off, for node columns that differ from one another and from node to node, from the first
+// or a later column of the node fields (TilesOfMovedParticles: consecutive and listed batches; the
+// last column of tiles partial).
+template <class Make, int N>
+void expect_windowed_g2p_and_g2pd_matches_the_reference(int first_column) {
+  using Sink = StoreValuesAndGradients<N>;
+  using Shape = decltype(Make::make(std::declval<const GridGeometry&>(), index_t(0)));
+  static_assert(ReadsThroughWindow<G2PAndG2PDBody<NodeColumns<N>, Sink, Shape::stencil_width>>::value,
+                "read through windows on CPUs");
+  const TilesOfMovedParticles moved;
+  const GridGeometry& g = moved.g;
+  const DeviceParticles& d = moved.d;
+  const auto shape = Make::make(g, d.count);
+  const auto t = ColouredTraversal<Coloured>::of(g, d);
+  const NodeFieldsView nodal = varied_node_columns(g, first_column + N);
+  NodeFieldsView windowed("windowed", d.count, 3 * N), reference("reference", d.count, 3 * N);
+  g2p_and_g2pd("test_windowed", shape, d.where, t.cells, NodeColumns<N>{nodal, first_column}, Sink{windowed});
+  g2p_and_g2pd("test_reference", shape, d.where, d.count, NodeColumns<N>{nodal, first_column}, Sink{reference});
+  auto w = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), windowed);
+  auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
+  for (int k = 0; k < 3 * N; ++k) {
+    double largest = 0;
+    for (index_t p = 0; p < d.count; ++p) largest = std::max(largest, std::fabs(r(p, k)));
+    ASSERT_GT(largest, 0) << "column " << k;
+    for (index_t p = 0; p < d.count; ++p)
+      ASSERT_NEAR(w(p, k), r(p, k), 1e-13 * largest) << "particle " << p << ", column " << k;
+  }
+}
+// G2P then P2G's update for the windowed test: stores the N interpolated values, hands out M
+// particle values made of them.
+template <int N, int M>
+struct StoreValuesAndCarry {
+  using writes_only_its_particle = std::true_type;
+  static constexpr int num_components = M;
+  NodeFieldsView stored;
+  RealView mass;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[N], real_t (&out)[M]) const {
+    for (int c = 0; c < N; ++c) stored(p, c) = value[c];
+    for (int c = 0; c < M; ++c) out[c] = mass(p) * (value[c % N] + c);
+  }
+};
+
+// The fused G2P + remap P2G on CPUs with the particles grouped by tile reads its N node columns
+// through windows and adds its M columns into the windows' next ones, colour by colour
+// (walk_tiles_through_windows): the reference traversal's values and sums, to round-off, and
+// nothing in the target's other columns.
+template <class Make, int N, int M>
+void expect_windowed_g2p_then_p2g_matches_the_reference(int first_read, int first_written) {
+  using Update = StoreValuesAndCarry<N, M>;
+  static_assert(ReadsThroughWindow<G2PThenP2GBody<NodeColumns<N>, Update, DirectNodeAccess>>::value,
+                "read through windows on CPUs");
+  const TilesOfMovedParticles moved;
+  const GridGeometry& g = moved.g;
+  const DeviceParticles& d = moved.d;
+  const auto shape = Make::make(g, d.count);
+  const auto t = ColouredTraversal<Coloured>::of(g, d);
+  const NodeFieldsView nodal = varied_node_columns(g, first_read + N);
+  const int columns = first_written + M + 1;
+  NodeFieldsView windowed_values("windowed_values", d.count, N), reference_values("reference_values", d.count, N);
+  NodeFieldsView windowed("windowed", g.num_nodes(), columns), reference("reference", g.num_nodes(), columns);
+  DirectNodeAccess direct{windowed};
+  g2p_then_p2g("test_windowed", shape, d.where, t.cells, NodeColumns<N>{nodal, first_read},
+               Update{windowed_values, d.mass}, direct, first_written);
+  NodeScatterView<Atomic> scatter(reference);
+  p2g_begin(scatter, reference);
+  g2p_then_p2g("test_reference", shape, d.where, d.count, NodeColumns<N>{nodal, first_read},
+               Update{reference_values, d.mass}, scatter, first_written);
+  p2g_end(scatter, reference);
+  auto wv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), windowed_values);
+  auto rv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference_values);
+  for (int k = 0; k < N; ++k)
+    for (index_t p = 0; p < d.count; ++p)
+      ASSERT_NEAR(wv(p, k), rv(p, k), 1e-13 * (1 + std::fabs(rv(p, k)))) << "particle " << p << ", column " << k;
+  auto w = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), windowed);
+  auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
+  for (int k = 0; k < columns; ++k) {
+    const bool written = k >= first_written && k < first_written + M;
+    double largest = 0;
+    for (int i = 0; i < g.num_nodes(); ++i) largest = std::max(largest, std::fabs(r(i, k)));
+    if (written) ASSERT_GT(largest, 0) << "column " << k;
+    for (int i = 0; i < g.num_nodes(); ++i) {
+      if (written)
+        ASSERT_NEAR(w(i, k), r(i, k), 1e-13 * largest) << "node " << i << ", column " << k;
+      else
+        ASSERT_EQ(w(i, k), 0) << "node " << i << ", column " << k;
+    }
+  }
+}
+TEST(ColouredTiles, WindowedG2PThenP2GGivesTheReferenceValuesAndSums) {
+  expect_windowed_g2p_then_p2g_matches_the_reference<MakeLinear, 2, 2>(0, 0);  // the step's
+  expect_windowed_g2p_then_p2g_matches_the_reference<MakeGimp, 2, 2>(0, 1);
+  expect_windowed_g2p_then_p2g_matches_the_reference<MakeBSpline, 2, 2>(3, 1);
+  expect_windowed_g2p_then_p2g_matches_the_reference<MakeGimp, 1, 3>(2, 0);
+  expect_windowed_g2p_then_p2g_matches_the_reference<MakeGimp, 3, 5>(0, 2);  // a window of 8
+}
+
+// A sink not marked as writing only its particle (one that adds to its particle's cell would be).
+struct MayWriteBeyondItsParticle {
+  template <class Values, class Gradients>
+  KOKKOS_INLINE_FUNCTION void operator()(index_t, Values, Gradients) const {}
+};
+TEST(ColouredTiles, WindowedValuesAndGradientsAreTheReferenceOnes) {
+  // Such a sink is not one whose tiles may be walked without colours.
+  static_assert(!ReadsThroughWindow<G2PAndG2PDBody<NodeColumns<1>, MayWriteBeyondItsParticle, 3>>::value,
+                "only sinks that write their own particle");
+  static_assert(!ReadsThroughWindow<G2PAndG2PDBody<NodeColumn, StoreValueAndGradient<0>, 3>>::value,
+                "only node columns can be copied into a window");
+  expect_windowed_g2p_and_g2pd_matches_the_reference<MakeLinear, 5>(2);
+  expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, 5>(2);
+  expect_windowed_g2p_and_g2pd_matches_the_reference<MakeBSpline, 5>(2);
+  expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, 1>(0);
+  expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, NodeMajorWindow::width>(1);
+}
+
 // select_indices, with a buffer kept from call to call and without: the selected indices of
 // [first, last) in increasing order. (A function, not a generic lambda: nvcc allows no device lambda launched from one.)
 template <class Predicate>
