@@ -636,6 +636,37 @@ struct TeamTile {
   }
 };
 
+// The windows of the CPU walks (walk_tiles_staged, walk_tiles_in_windows): a window holds whole
+// rows of nodes (row stride nodes_x, so that a stencil's node n is the window's row n - base), of
+// which a tile's reach is used: tile.x + 2 r - 1 by tile.y + 2 r - 1 nodes from (ci_begin - r + 1,
+// cj_begin - r + 1), r = colour_period / 2. Its last row reaches window_x nodes past its start,
+// which is more than nodes_x where the reach starts left of the grid (i0 < 0) on a grid narrower
+// than the reach: so window_y - 1 whole rows and window_x nodes.
+struct TileReach {
+  index_t i0, j0;                  // the window's first node (may lie outside the grid)
+  index_t i_begin, i_end, j_begin, j_end;  // its nodes within the grid
+};
+struct TileWindows {
+  index_t nodes_x, nodes_y, window_x, window_y, r;
+  template <class Shape>
+  static TileWindows of(const Shape& shape, TileExtent tile) {
+    constexpr index_t r = Shape::colour_period / 2;
+    return {shape.grid.geometry.nodes_x, shape.grid.geometry.nodes_y, tile.x + 2 * r - 1, tile.y + 2 * r - 1, r};
+  }
+  size_t bytes(int width) const { return size_t(nodes_x * (window_y - 1) + window_x) * width * sizeof(real_t); }
+  // The reach of the tile whose first cell is (ci_begin, cj_begin).
+  KOKKOS_INLINE_FUNCTION TileReach reach(index_t ci_begin, index_t cj_begin) const {
+    const index_t i0 = ci_begin - r + 1, j0 = cj_begin - r + 1;
+    return {i0,
+            j0,
+            i0 > 0 ? i0 : 0,
+            i0 + window_x < nodes_x ? i0 + window_x : nodes_x,
+            j0 > 0 ? j0 : 0,
+            j0 + window_y < nodes_y ? j0 + window_y : nodes_y};
+  }
+  KOKKOS_INLINE_FUNCTION index_t base(const TileReach& reach) const { return reach.i0 + nodes_x * reach.j0; }
+};
+
 // A body that can add into a thread's node-major window (NodeMajorWindow): marked by a member
 // staged_in(window) (P2GAndP2GDBody).
 template <class Body, class = void>
@@ -644,25 +675,16 @@ template <class Body>
 struct StagesInWindow<Body, std::void_t<decltype(std::declval<const Body&>().staged_in(std::declval<NodeMajorWindow>()))>>
     : std::true_type {};
 
-// walk_tiles with each tile's nodes staged in a window of the thread's (CPUs): zeroed, the tile's
-// particles added into it as walk_tiles adds them into the node fields, then added to the node
-// fields once. The window holds whole rows of nodes (row stride nodes_x, so that a stencil's node
-// n is the window's row n - base), of which the tile's reach is used: tile.x + 2 r - 1 by
-// tile.y + 2 r - 1 nodes from (ci_begin - r + 1, cj_begin - r + 1), r = colour_period / 2. Its
-// last row reaches window_x nodes past its start, which is more than nodes_x where the reach starts
-// left of the grid (i0 < 0) on a grid narrower than the reach: so window_y - 1 whole rows and
-// window_x nodes.
+// walk_tiles with each tile's nodes staged in a window of the thread's (CPUs; TileWindows): zeroed,
+// the tile's particles added into it as walk_tiles adds them into the node fields, then added to
+// the node fields once.
 template <class Shape, class Body>
 void walk_tiles_staged(const char* label, const Shape& shape, const ParticleLocations& particles,
                        const ColouredTiles& tiled, const Body& body) {
   constexpr int W = NodeMajorWindow::width;
-  constexpr index_t r = Shape::colour_period / 2;
-  const auto x = particles.x;
-  const auto y = particles.y;
-  const auto cell = particles.cell;
-  const index_t nodes_x = shape.grid.geometry.nodes_x, nodes_y = shape.grid.geometry.nodes_y;
-  const index_t window_x = tiled.tile.x + 2 * r - 1, window_y = tiled.tile.y + 2 * r - 1;
-  const size_t window_bytes = size_t(nodes_x * (window_y - 1) + window_x) * W * sizeof(real_t);
+  const TileWindows windows = TileWindows::of(shape, tiled.tile);
+  const index_t nodes_x = windows.nodes_x;
+  const size_t window_bytes = windows.bytes(W);
   const IndexView offset = tiled.tile_offset, order = tiled.particle;
   const NodeFieldsView target = body.scatter.target;
   const int first = body.first_written_column(), components = body.end_written_column() - first;
@@ -678,22 +700,20 @@ void walk_tiles_staged(const char* label, const Shape& shape, const ParticleLoca
       const index_t k = team.league_rank(), t = tiles.tile_number(k);
       index_t ci_begin, ci_end, cj_begin, cj_end;
       tiles.cells_of_tile(k, ci_begin, ci_end, cj_begin, cj_end);
-      const index_t i0 = ci_begin - r + 1, j0 = cj_begin - r + 1;
-      const index_t i_begin = i0 > 0 ? i0 : 0, j_begin = j0 > 0 ? j0 : 0;
-      const index_t i_end = i0 + window_x < nodes_x ? i0 + window_x : nodes_x;
-      const index_t j_end = j0 + window_y < nodes_y ? j0 + window_y : nodes_y;
+      const TileReach reach = windows.reach(ci_begin, cj_begin);
       const NodeMajorWindow window{static_cast<real_t*>(team.team_scratch(0).get_shmem(window_bytes)),
-                                   i0 + nodes_x * j0, first};
-      for (index_t j = j_begin; j < j_end; ++j)
-        for (index_t i = i_begin; i < i_end; ++i) {
+                                   windows.base(reach), first};
+      for (index_t j = reach.j_begin; j < reach.j_end; ++j)
+        for (index_t i = reach.i_begin; i < reach.i_end; ++i) {
           real_t* node = window.node(i + nodes_x * j);
           for (int c = 0; c < W; ++c) node[c] = 0;
         }
-      run_tile_batches(shape, body.staged_in(window), order.data(), offset(t), offset(t + 1), cell.data(), x.data(),
-                       y.data(), nodes_x);
-      for (index_t j = j_begin; j < j_end; ++j)
+      run_tile_batches(shape, body.staged_in(window), order.data(), offset(t), offset(t + 1), particles.cell.data(),
+                       particles.x.data(), particles.y.data(), nodes_x);
+      for (index_t j = reach.j_begin; j < reach.j_end; ++j)
         for (int c = 0; c < components; ++c)
-          for (index_t i = i_begin; i < i_end; ++i) target(i + nodes_x * j, first + c) += window.node(i + nodes_x * j)[c];
+          for (index_t i = reach.i_begin; i < reach.i_end; ++i)
+            target(i + nodes_x * j, first + c) += window.node(i + nodes_x * j)[c];
     });
   }
 }
@@ -718,22 +738,17 @@ struct AllTiles {
 };
 
 // The tiles of `tiles` (AllTiles or a TileColour), a thread each, each tile's nodes first copied
-// into a window of the thread's, node by node: the node columns the body reads, then zeros (the
-// columns it adds into, and the rest of the width); its particles then read them from there
-// (body.through(window)); the columns added into are then added into the node fields. The window
-// covers the tile's reach as walk_tiles_staged's does.
+// into a window of the thread's (TileWindows), node by node: the node columns the body reads, then
+// zeros (the columns it adds into, and the rest of the width); its particles then read them from
+// there (body.through(window)); the columns added into are then added into the node fields.
 template <int W, class Shape, class Body, class Tiles>
 void walk_tiles_in_windows(const char* label, const Shape& shape, const ParticleLocations& particles,
                            const ColouredTiles& tiled, const Tiles& tiles, const Body& body,
                            const NodeFieldsView& written, int first_written) {
   constexpr int read = Body::window_columns_read, added = Body::window_columns - read;
-  constexpr index_t r = Shape::colour_period / 2;
-  const auto x = particles.x;
-  const auto y = particles.y;
-  const auto cell = particles.cell;
-  const index_t nodes_x = shape.grid.geometry.nodes_x, nodes_y = shape.grid.geometry.nodes_y;
-  const index_t window_x = tiled.tile.x + 2 * r - 1, window_y = tiled.tile.y + 2 * r - 1;
-  const size_t window_bytes = size_t(nodes_x * (window_y - 1) + window_x) * W * sizeof(real_t);
+  const TileWindows windows = TileWindows::of(shape, tiled.tile);
+  const index_t nodes_x = windows.nodes_x;
+  const size_t window_bytes = windows.bytes(W);
   const TileExtent tile = tiled.tile;
   const index_t tiles_x = tiles_along_x(tiled.cells_x, tile);
   const IndexView offset = tiled.tile_offset, order = tiled.particle;
@@ -746,24 +761,21 @@ void walk_tiles_in_windows(const char* label, const Shape& shape, const Particle
   Kokkos::parallel_for(label, policy, KOKKOS_LAMBDA(const Team& team) {
     const index_t t = tiles.tile_number(team.league_rank());
     if (offset(t) == offset(t + 1)) return;
-    const index_t i0 = (t % tiles_x) * tile.x - r + 1, j0 = (t / tiles_x) * tile.y - r + 1;
-    const index_t i_begin = i0 > 0 ? i0 : 0, j_begin = j0 > 0 ? j0 : 0;
-    const index_t i_end = i0 + window_x < nodes_x ? i0 + window_x : nodes_x;
-    const index_t j_end = j0 + window_y < nodes_y ? j0 + window_y : nodes_y;
+    const TileReach reach = windows.reach((t % tiles_x) * tile.x, (t / tiles_x) * tile.y);
     const NodeMajorWindowOf<W> window{static_cast<real_t*>(team.team_scratch(0).get_shmem(window_bytes)),
-                                      i0 + nodes_x * j0, first_written - read};
-    for (index_t j = j_begin; j < j_end; ++j) {
+                                      windows.base(reach), first_written - read};
+    for (index_t j = reach.j_begin; j < reach.j_end; ++j) {
       for (int c = 0; c < read; ++c)
-        for (index_t i = i_begin; i < i_end; ++i)
+        for (index_t i = reach.i_begin; i < reach.i_end; ++i)
           window.node(i + nodes_x * j)[c] = source(i + nodes_x * j, first_read + c);
-      for (index_t i = i_begin; i < i_end; ++i)
+      for (index_t i = reach.i_begin; i < reach.i_end; ++i)
         for (int c = read; c < W; ++c) window.node(i + nodes_x * j)[c] = 0;
     }
-    run_tile_batches(shape, body.through(window), order.data(), offset(t), offset(t + 1), cell.data(), x.data(),
-                     y.data(), nodes_x);
-    for (index_t j = j_begin; j < j_end; ++j)
+    run_tile_batches(shape, body.through(window), order.data(), offset(t), offset(t + 1), particles.cell.data(),
+                     particles.x.data(), particles.y.data(), nodes_x);
+    for (index_t j = reach.j_begin; j < reach.j_end; ++j)
       for (int c = 0; c < added; ++c)
-        for (index_t i = i_begin; i < i_end; ++i)
+        for (index_t i = reach.i_begin; i < reach.i_end; ++i)
           written(i + nodes_x * j, first_written + c) += window.node(i + nodes_x * j)[read + c];
   });
 }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -775,6 +776,27 @@ TEST(ColouredTiles, ConsecutiveAndListedBatchesGiveTheReferenceSums) {
   expect_coloured_runs_match_the_reference<MakeGimp>();
 }
 
+// Each (node, column) of `actual` is the reference's to round-off (relative to the column's largest)
+// in the columns written(column) names, and zero in the others.
+void expect_node_columns_match(const NodeFieldsView& actual, const NodeFieldsView& reference,
+                               const std::function<bool(int)>& written) {
+  auto a = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), actual);
+  auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
+  ASSERT_EQ(a.extent(0), r.extent(0));
+  ASSERT_EQ(a.extent(1), r.extent(1));
+  for (int k = 0; k < static_cast<int>(r.extent(1)); ++k) {
+    double largest = 0;
+    for (size_t i = 0; i < r.extent(0); ++i) largest = std::max(largest, std::fabs(r(i, k)));
+    if (written(k)) ASSERT_GT(largest, 0) << "column " << k;
+    for (size_t i = 0; i < r.extent(0); ++i) {
+      if (written(k))
+        EXPECT_NEAR(a(i, k), r(i, k), 1e-13 * largest) << "node " << i << ", column " << k;
+      else
+        EXPECT_EQ(a(i, k), 0) << "node " << i << ", column " << k;
+    }
+  }
+}
+
 // The sorted P2G of values and vectors together (P2GAndP2GDBody: the step's mass, momentum and
 // force) on CPUs adds each tile's particles into a node-major window of its thread's, then the
 // window into the node fields (walk_tiles_staged); with its columns further apart than a window
@@ -798,20 +820,7 @@ void expect_staged_p2g_matches_the_reference(int first_vector_column) {
   p2g_begin(scatter, reference);
   p2g_and_p2gd("test_reference", shape, d.where, d.count, scatter, 0, values, first_vector_column, vectors);
   p2g_end(scatter, reference);
-  auto c = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), staged);
-  auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
-  for (int k = 0; k < columns; ++k) {
-    const bool written = k < 2 || k >= first_vector_column;
-    double largest = 0;
-    for (int i = 0; i < g.num_nodes(); ++i) largest = std::max(largest, std::fabs(r(i, k)));
-    if (written) ASSERT_GT(largest, 0) << "column " << k;
-    for (int i = 0; i < g.num_nodes(); ++i) {
-      if (written)
-        EXPECT_NEAR(c(i, k), r(i, k), 1e-13 * largest) << "node " << i << ", column " << k;
-      else
-        EXPECT_EQ(c(i, k), 0) << "node " << i << ", column " << k;
-    }
-  }
+  expect_node_columns_match(staged, reference, [&](int k) { return k < 2 || k >= first_vector_column; });
 }
 TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
   using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearField, VaryingVectors>;
@@ -823,6 +832,13 @@ TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
     expect_staged_p2g_matches_the_reference<MakeBSpline>(first_vector_column);
   }
 }
+
+// TilesOfMovedParticles with the shape of Make and the particles grouped by tile (ColouredTiles).
+template <class Make>
+struct MovedParticlesByTile : TilesOfMovedParticles {
+  decltype(Make::make(std::declval<const GridGeometry&>(), index_t(0))) shape = Make::make(g, d.count);
+  ColouredTraversal<Coloured> by_tile = ColouredTraversal<Coloured>::of(g, d);
+};
 
 // Node columns 0 .. columns - 1 that differ from one another and from node to node.
 NodeFieldsView varied_node_columns(const GridGeometry& g, int columns) {
@@ -864,15 +880,14 @@ void expect_windowed_g2p_and_g2pd_matches_the_reference(int first_column) {
   using Shape = decltype(Make::make(std::declval<const GridGeometry&>(), index_t(0)));
   static_assert(ReadsThroughWindow<G2PAndG2PDBody<NodeColumns<N>, Sink, Shape::stencil_width>>::value,
                 "read through windows on CPUs");
-  const TilesOfMovedParticles moved;
+  const MovedParticlesByTile<Make> moved;
   const GridGeometry& g = moved.g;
   const DeviceParticles& d = moved.d;
-  const auto shape = Make::make(g, d.count);
-  const auto t = ColouredTraversal<Coloured>::of(g, d);
   const NodeFieldsView nodal = varied_node_columns(g, first_column + N);
   NodeFieldsView windowed("windowed", d.count, 3 * N), reference("reference", d.count, 3 * N);
-  g2p_and_g2pd("test_windowed", shape, d.where, t.cells, NodeColumns<N>{nodal, first_column}, Sink{windowed});
-  g2p_and_g2pd("test_reference", shape, d.where, d.count, NodeColumns<N>{nodal, first_column}, Sink{reference});
+  g2p_and_g2pd("test_windowed", moved.shape, d.where, moved.by_tile.cells, NodeColumns<N>{nodal, first_column},
+               Sink{windowed});
+  g2p_and_g2pd("test_reference", moved.shape, d.where, d.count, NodeColumns<N>{nodal, first_column}, Sink{reference});
   auto w = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), windowed);
   auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
   for (int k = 0; k < 3 * N; ++k) {
@@ -906,21 +921,19 @@ void expect_windowed_g2p_then_p2g_matches_the_reference(int first_read, int firs
   using Update = StoreValuesAndCarry<N, M>;
   static_assert(ReadsThroughWindow<G2PThenP2GBody<NodeColumns<N>, Update, DirectNodeAccess>>::value,
                 "read through windows on CPUs");
-  const TilesOfMovedParticles moved;
+  const MovedParticlesByTile<Make> moved;
   const GridGeometry& g = moved.g;
   const DeviceParticles& d = moved.d;
-  const auto shape = Make::make(g, d.count);
-  const auto t = ColouredTraversal<Coloured>::of(g, d);
   const NodeFieldsView nodal = varied_node_columns(g, first_read + N);
   const int columns = first_written + M + 1;
   NodeFieldsView windowed_values("windowed_values", d.count, N), reference_values("reference_values", d.count, N);
   NodeFieldsView windowed("windowed", g.num_nodes(), columns), reference("reference", g.num_nodes(), columns);
   DirectNodeAccess direct{windowed};
-  g2p_then_p2g("test_windowed", shape, d.where, t.cells, NodeColumns<N>{nodal, first_read},
+  g2p_then_p2g("test_windowed", moved.shape, d.where, moved.by_tile.cells, NodeColumns<N>{nodal, first_read},
                Update{windowed_values, d.mass}, direct, first_written);
   NodeScatterView<Atomic> scatter(reference);
   p2g_begin(scatter, reference);
-  g2p_then_p2g("test_reference", shape, d.where, d.count, NodeColumns<N>{nodal, first_read},
+  g2p_then_p2g("test_reference", moved.shape, d.where, d.count, NodeColumns<N>{nodal, first_read},
                Update{reference_values, d.mass}, scatter, first_written);
   p2g_end(scatter, reference);
   auto wv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), windowed_values);
@@ -928,20 +941,7 @@ void expect_windowed_g2p_then_p2g_matches_the_reference(int first_read, int firs
   for (int k = 0; k < N; ++k)
     for (index_t p = 0; p < d.count; ++p)
       ASSERT_NEAR(wv(p, k), rv(p, k), 1e-13 * (1 + std::fabs(rv(p, k)))) << "particle " << p << ", column " << k;
-  auto w = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), windowed);
-  auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
-  for (int k = 0; k < columns; ++k) {
-    const bool written = k >= first_written && k < first_written + M;
-    double largest = 0;
-    for (int i = 0; i < g.num_nodes(); ++i) largest = std::max(largest, std::fabs(r(i, k)));
-    if (written) ASSERT_GT(largest, 0) << "column " << k;
-    for (int i = 0; i < g.num_nodes(); ++i) {
-      if (written)
-        ASSERT_NEAR(w(i, k), r(i, k), 1e-13 * largest) << "node " << i << ", column " << k;
-      else
-        ASSERT_EQ(w(i, k), 0) << "node " << i << ", column " << k;
-    }
-  }
+  expect_node_columns_match(windowed, reference, [&](int k) { return k >= first_written && k < first_written + M; });
 }
 TEST(ColouredTiles, WindowedG2PThenP2GGivesTheReferenceValuesAndSums) {
   expect_windowed_g2p_then_p2g_matches_the_reference<MakeLinear, 2, 2>(0, 0);  // the step's
