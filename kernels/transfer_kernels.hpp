@@ -134,10 +134,6 @@ struct NodeMajorWindowOf {
     return node(n)[component - first_component];
   }
 };
-template <class Access>
-struct IsNodeMajorWindow : std::false_type {};
-template <int W>
-struct IsNodeMajorWindow<NodeMajorWindowOf<W>> : std::true_type {};
 // 8 columns: one AVX-512 vector of doubles (P2G's seven, G2PD's five).
 using NodeMajorWindow = NodeMajorWindowOf<8>;
 // The width of a window for `columns` columns: 2, 4 or 8 (a vector of 128, 256 or 512 bits).
@@ -636,7 +632,7 @@ struct TeamTile {
   }
 };
 
-// The windows of the CPU walks (walk_tiles_staged, walk_tiles_in_windows): a window holds whole
+// The windows of the CPU walks (walk_window_pass): a window holds whole
 // rows of nodes (row stride nodes_x, so that a stencil's node n is the window's row n - base), of
 // which a tile's reach is used: tile.x + 2 r - 1 by tile.y + 2 r - 1 nodes from (ci_begin - r + 1,
 // cj_begin - r + 1), r = colour_period / 2. Its last row reaches window_x nodes past its start,
@@ -667,67 +663,23 @@ struct TileWindows {
   KOKKOS_INLINE_FUNCTION index_t base(const TileReach& reach) const { return reach.i0 + nodes_x * reach.j0; }
 };
 
-// A body that can add into a thread's node-major window (NodeMajorWindow): marked by a member
-// staged_in(window) (P2GAndP2GDBody).
+// A body that only writes nodes (OnlyWritesNodes) and can add into a thread's node-major window
+// instead: body.through(window) (P2GAndP2GDBody).
 template <class Body, class = void>
 struct StagesInWindow : std::false_type {};
 template <class Body>
-struct StagesInWindow<Body, std::void_t<decltype(std::declval<const Body&>().staged_in(std::declval<NodeMajorWindow>()))>>
-    : std::true_type {};
+struct StagesInWindow<Body, std::void_t<decltype(std::declval<const Body&>().through(std::declval<NodeMajorWindow>()))>>
+    : OnlyWritesNodes<Body> {};
 
-// walk_tiles with each tile's nodes staged in a window of the thread's (CPUs; TileWindows): zeroed,
-// the tile's particles added into it as walk_tiles adds them into the node fields, then added to
-// the node fields once.
-template <class Shape, class Body>
-void walk_tiles_staged(const char* label, const Shape& shape, const ParticleLocations& particles,
-                       const ColouredTiles& tiled, const Body& body) {
-  constexpr int W = NodeMajorWindow::width;
-  const TileWindows windows = TileWindows::of(shape, tiled.tile);
-  const index_t nodes_x = windows.nodes_x;
-  const size_t window_bytes = windows.bytes(W);
-  const IndexView offset = tiled.tile_offset, order = tiled.particle;
-  const NodeFieldsView target = body.scatter.target;
-  const int first = body.first_written_column(), components = body.end_written_column() - first;
-  if (components > W) return walk_tiles(label, shape, particles, tiled, body);  // columns too far apart
-  using Policy = Kokkos::TeamPolicy<ExecutionSpace, Kokkos::Schedule<Kokkos::Dynamic>>;
-  using Team = typename Policy::member_type;
-  for (int colour = 0; colour < 4; ++colour) {
-    const TileColour tiles(tiled.cells_x, tiled.cells_y, colour, tiled.tile);
-    if (tiles.tiles() == 0) continue;
-    Policy policy(tiles.tiles(), 1);
-    policy.set_scratch_size(0, Kokkos::PerTeam(window_bytes));
-    Kokkos::parallel_for(label, policy, KOKKOS_LAMBDA(const Team& team) {
-      const index_t k = team.league_rank(), t = tiles.tile_number(k);
-      index_t ci_begin, ci_end, cj_begin, cj_end;
-      tiles.cells_of_tile(k, ci_begin, ci_end, cj_begin, cj_end);
-      const TileReach reach = windows.reach(ci_begin, cj_begin);
-      const NodeMajorWindow window{static_cast<real_t*>(team.team_scratch(0).get_shmem(window_bytes)),
-                                   windows.base(reach), first};
-      for (index_t j = reach.j_begin; j < reach.j_end; ++j)
-        for (index_t i = reach.i_begin; i < reach.i_end; ++i) {
-          real_t* node = window.node(i + nodes_x * j);
-          for (int c = 0; c < W; ++c) node[c] = 0;
-        }
-      run_tile_batches(shape, body.staged_in(window), order.data(), offset(t), offset(t + 1), particles.cell.data(),
-                       particles.x.data(), particles.y.data(), nodes_x);
-      for (index_t j = reach.j_begin; j < reach.j_end; ++j)
-        for (int c = 0; c < components; ++c)
-          for (index_t i = reach.i_begin; i < reach.i_end; ++i)
-            target(i + nodes_x * j, first + c) += window.node(i + nodes_x * j)[c];
-    });
-  }
-}
-
-// A body that reads its nodes through a thread's window, marked by a member reads_through_window =
-// true: one that reads node columns (NodeColumns: the first window_columns_read of the window's
-// window_columns) and writes its particle (G2PAndG2PDBody), or besides adds into node columns
-// (G2PThenP2GBody, through DirectNodeAccess: the window's next columns); body.through(window) is
-// the same body reading (and adding into) the window.
-template <class Body, class = void>
-struct ReadsThroughWindow : std::false_type {};
-template <class Body>
-struct ReadsThroughWindow<Body, std::void_t<decltype(Body::reads_through_window)>>
-    : std::integral_constant<bool, Body::reads_through_window> {};
+// The node columns a tile's window takes (walk_tiles_in_windows): `read` columns of `source` from
+// first_read, copied in as the window's first columns, and `added` columns that the particles add
+// into, the window's next ones (zeroed), then added into `written` from first_written.
+struct WindowColumnsOfTiles {
+  NodeFieldsView source;
+  int first_read, read;
+  NodeFieldsView written;
+  int first_written, added;
+};
 
 // All tiles in one pass, for a body that writes nothing two tiles share (as TileColour gives one
 // colour's).
@@ -738,22 +690,22 @@ struct AllTiles {
 };
 
 // The tiles of `tiles` (AllTiles or a TileColour), a thread each, each tile's nodes first copied
-// into a window of the thread's (TileWindows), node by node: the node columns the body reads, then
-// zeros (the columns it adds into, and the rest of the width); its particles then read them from
-// there (body.through(window)); the columns added into are then added into the node fields.
+// into a window of the thread's (TileWindows) node by node as `columns` says; its particles then
+// read (and add into) the window (body.through(window)); the columns added into are then added
+// into the node fields. (A tile without particles is skipped: its window would add zeros.)
 template <int W, class Shape, class Body, class Tiles>
-void walk_tiles_in_windows(const char* label, const Shape& shape, const ParticleLocations& particles,
-                           const ColouredTiles& tiled, const Tiles& tiles, const Body& body,
-                           const NodeFieldsView& written, int first_written) {
-  constexpr int read = Body::window_columns_read, added = Body::window_columns - read;
+void walk_window_pass(const char* label, const Shape& shape, const ParticleLocations& particles,
+                      const ColouredTiles& tiled, const Tiles& tiles, const Body& body,
+                      const WindowColumnsOfTiles& columns) {
   const TileWindows windows = TileWindows::of(shape, tiled.tile);
   const index_t nodes_x = windows.nodes_x;
   const size_t window_bytes = windows.bytes(W);
   const TileExtent tile = tiled.tile;
   const index_t tiles_x = tiles_along_x(tiled.cells_x, tile);
   const IndexView offset = tiled.tile_offset, order = tiled.particle;
-  const NodeFieldsView source = body.node_functor.fields;
-  const int first_read = body.node_functor.first_column;
+  const NodeFieldsView source = columns.source, written = columns.written;
+  const int first_read = columns.first_read, read = columns.read;
+  const int first_written = columns.first_written, added = columns.added;
   using Policy = Kokkos::TeamPolicy<ExecutionSpace, Kokkos::Schedule<Kokkos::Dynamic>>;
   using Team = typename Policy::member_type;
   Policy policy(tiles.tiles(), 1);
@@ -780,6 +732,45 @@ void walk_tiles_in_windows(const char* label, const Shape& shape, const Particle
   });
 }
 
+// walk_window_pass over all tiles in one pass, or colour by colour where the body adds into nodes
+// (`coloured`): tiles of one colour share no node.
+template <int W, class Shape, class Body>
+void walk_tiles_in_windows(const char* label, const Shape& shape, const ParticleLocations& particles,
+                           const ColouredTiles& tiled, const Body& body, const WindowColumnsOfTiles& columns,
+                           bool coloured) {
+  if (!coloured)
+    return walk_window_pass<W>(label, shape, particles, tiled,
+                               AllTiles{num_tiles(tiled.cells_x, tiled.cells_y, tiled.tile)}, body, columns);
+  for (int colour = 0; colour < 4; ++colour) {
+    const TileColour tiles(tiled.cells_x, tiled.cells_y, colour, tiled.tile);
+    if (tiles.tiles() > 0) walk_window_pass<W>(label, shape, particles, tiled, tiles, body, columns);
+  }
+}
+
+// walk_tiles with each tile's nodes staged in a window of the thread's (CPUs): zeroed, the tile's
+// particles added into it as walk_tiles adds them into the node fields, then added to the node
+// fields once; with its columns further apart than a window is wide, walk_tiles.
+template <class Shape, class Body>
+void walk_tiles_staged(const char* label, const Shape& shape, const ParticleLocations& particles,
+                       const ColouredTiles& tiled, const Body& body) {
+  constexpr int W = NodeMajorWindow::width;
+  const int first = body.first_written_column(), components = body.end_written_column() - first;
+  if (components > W) return walk_tiles(label, shape, particles, tiled, body);
+  walk_tiles_in_windows<W>(label, shape, particles, tiled, body,
+                           WindowColumnsOfTiles{NodeFieldsView(), 0, 0, body.scatter.target, first, components}, true);
+}
+
+// A body that reads its nodes through a thread's window, marked by a member reads_through_window =
+// true: one that reads node columns (NodeColumns: the first window_columns_read of the window's
+// window_columns) and writes its particle (G2PAndG2PDBody), or besides adds into node columns
+// (G2PThenP2GBody, through DirectNodeAccess: the window's next columns); body.through(window) is
+// the same body reading (and adding into) the window.
+template <class Body, class = void>
+struct ReadsThroughWindow : std::false_type {};
+template <class Body>
+struct ReadsThroughWindow<Body, std::void_t<decltype(Body::reads_through_window)>>
+    : std::integral_constant<bool, Body::reads_through_window> {};
+
 // The tiles' particles of a body that reads its nodes through windows (CPUs): all tiles in one
 // pass where it only writes its particles (no colours: nothing two tiles write is shared), colour
 // by colour where it adds into nodes too.
@@ -788,23 +779,14 @@ void walk_tiles_through_windows(const char* label, const Shape& shape, const Par
                                 const ColouredTiles& tiled, const Body& body) {
   constexpr int W = window_width_for(Body::window_columns);
   constexpr bool adds = Body::window_columns > Body::window_columns_read;
-  NodeFieldsView written;
-  int first_written = 0;
+  WindowColumnsOfTiles columns{body.node_functor.fields, body.node_functor.first_column, Body::window_columns_read,
+                               NodeFieldsView(), 0, 0};
   if constexpr (adds) {
-    written = body.scatter.target;
-    first_written = body.first_component;
+    columns.written = body.scatter.target;
+    columns.first_written = body.first_component;
+    columns.added = Body::window_columns - Body::window_columns_read;
   }
-  if (!adds) {
-    walk_tiles_in_windows<W>(label, shape, particles, tiled,
-                             AllTiles{num_tiles(tiled.cells_x, tiled.cells_y, tiled.tile)}, body, written,
-                             first_written);
-    return;
-  }
-  for (int colour = 0; colour < 4; ++colour) {
-    const TileColour tiles(tiled.cells_x, tiled.cells_y, colour, tiled.tile);
-    if (tiles.tiles() > 0)
-      walk_tiles_in_windows<W>(label, shape, particles, tiled, tiles, body, written, first_written);
-  }
+  walk_tiles_in_windows<W>(label, shape, particles, tiled, body, columns, adds);
 }
 
 // A team of threads per tile (the GPU path): TeamTile.
@@ -992,6 +974,25 @@ KOKKOS_FORCEINLINE_FUNCTION void accumulate(const StencilType& s, const Access& 
   }
 }
 
+// ... into a thread's window (NodeMajorWindowOf): the same operations in the same order, a node's N
+// columns as one vector (GCC keeps them scalar through the window's operator()).
+template <class StencilType, int W, int N>
+KOKKOS_FORCEINLINE_FUNCTION void accumulate(const StencilType& s, const NodeMajorWindowOf<W>& window,
+                                            int first_component, const real_t (&value)[N]) {
+  constexpr int K = StencilType::width;
+  const int column = first_component - window.first_component;
+  for (int b = 0; b < K; ++b) {
+    real_t row[N];  // F wy[b]
+    for (int c = 0; c < N; ++c) row[c] = value[c] * s.wy[b];
+    for (int a = 0; a < K; ++a) {
+      real_t* node = window.node(s.node(a, b)) + column;
+      const real_t wx = s.wx[a];
+      MPMFLOW_VECTORISE
+      for (int c = 0; c < N; ++c) node[c] += wx * row[c];
+    }
+  }
+}
+
 // The per-particle bodies of the kernels below are named functors with a templated call operator
 // (the stencil type depends on the shape), not generic lambdas: nvcc cannot pass a generic device
 // lambda into a template that launches its own device lambda.
@@ -1102,7 +1103,7 @@ struct P2GAndP2GDBody {
   }
   // The same body adding into a thread's window (walk_tiles_staged).
   using staged_body = P2GAndP2GDBody<NodeMajorWindow, ValueFunctor, VectorFunctor>;
-  KOKKOS_INLINE_FUNCTION staged_body staged_in(const NodeMajorWindow& window) const {
+  KOKKOS_INLINE_FUNCTION staged_body through(const NodeMajorWindow& window) const {
     return {window, first_value_component, value_functor, first_vector_component, vector_functor};
   }
   // The node fields' columns it writes: [first_written_column(), end_written_column()).
@@ -1220,28 +1221,7 @@ struct G2PThenP2GBody {
   }
   template <class StencilType, int L>
   KOKKOS_FORCEINLINE_FUNCTION void add_prepared(const StencilType& s, const Lanes<L>& lanes, int l) const {
-    add(s, lanes.out[l], IsNodeMajorWindow<Access>());
-  }
-  template <class StencilType>
-  KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&out)[M], std::false_type) const {
-    accumulate(s, scatter.access(), first_component, out);
-  }
-  // Into a window: accumulate's operations in its order, a node's M columns as one vector (GCC
-  // keeps them scalar through the window's operator()).
-  template <class StencilType>
-  KOKKOS_FORCEINLINE_FUNCTION void add(const StencilType& s, const real_t (&out)[M], std::true_type) const {
-    constexpr int K = StencilType::width;
-    const int column = first_component - scatter.first_component;
-    for (int b = 0; b < K; ++b) {
-      real_t row[M];  // out wy[b]
-      for (int c = 0; c < M; ++c) row[c] = out[c] * s.wy[b];
-      for (int a = 0; a < K; ++a) {
-        real_t* node = scatter.node(s.node(a, b)) + column;
-        const real_t wx = s.wx[a];
-        MPMFLOW_VECTORISE
-        for (int c = 0; c < M; ++c) node[c] += wx * row[c];
-      }
-    }
+    accumulate(s, scatter.access(), first_component, lanes.out[l]);
   }
   // The same body reading its node columns from a thread's window and adding into the window's next
   // columns (walk_tiles_through_windows, ReadsThroughWindow): a node's reads one vector load, its
