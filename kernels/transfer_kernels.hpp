@@ -866,11 +866,12 @@ void for_each_particle(const char* label, const ColouredTiles& tiles, const Body
       });
 }
 
-// Runs body(i) for i in [0, n), where body(i) writes only what belongs to i (a cell's row): on CPUs
-// in blocks of stencil_batch_size indices, each a loop marked for vectorisation (GCC keeps Kokkos'
-// range loop scalar: it cannot tell that the iterations' View accesses are independent), so that
-// the body's divisions and square roots run 8 at a time with AVX-512; one index per thread
-// elsewhere (GPUs).
+// Runs body(i) for i in [0, n), where body(i) writes only what belongs to i (a cell's row, a
+// particle's fields): on CPUs in blocks of stencil_batch_size indices, each a loop marked for
+// vectorisation (GCC keeps Kokkos' range loop scalar: it cannot tell that the iterations' View
+// accesses are independent), so that the body's divisions and square roots run 8 at a time with
+// AVX-512 (a body with a branch stays scalar: selects instead); one index per thread elsewhere
+// (GPUs).
 template <int L, class Body>
 KOKKOS_FORCEINLINE_FUNCTION void run_block_in_lanes(const Body& body, index_t first, int count) {
   MPMFLOW_VECTORISE

@@ -87,8 +87,11 @@ struct ParticleLocator {
   DomainBox domain;
   GridGeometry grid;
   real_t inverse_spacing_x = grid.inverse_spacing(0), inverse_spacing_y = grid.inverse_spacing(1);
+  // The cell computed either way and then selected (cell_of clamps, so it is a cell outside the
+  // domain too): a branch would keep a loop of these scalar (the pressure relaxation's).
   KOKKOS_INLINE_FUNCTION index_t operator()(real_t x, real_t y) const {
-    return domain.outside(x, y) ? index_t(left_the_domain) : grid.cell_of(x, y, inverse_spacing_x, inverse_spacing_y);
+    const index_t cell = grid.cell_of(x, y, inverse_spacing_x, inverse_spacing_y);
+    return domain.outside(x, y) ? index_t(left_the_domain) : cell;
   }
 };
 

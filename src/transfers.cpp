@@ -159,7 +159,6 @@ struct RelaxCellPressureAndLocate {
     const index_t c = cell(p);
     cell(p) = locate(position_x(p), position_y(p));
     const real_t fraction = cells(c, relaxation_fraction);
-    if (!(fraction > 0)) return;
     // Per unit of the particle's volume V = M / rho and mass, two divisions: the volume goes from V
     // to V_eq = V r (r = relaxed_volume_ratio) by the fraction, V (1 + fraction (r - 1)), and the
     // specific energy to that of the share, (E / V)_cell V_eq / M = (E / V)_cell r / rho.
@@ -169,9 +168,11 @@ struct RelaxCellPressureAndLocate {
     const real_t new_volume_ratio = 1 + fraction * (ratio - 1);
     const real_t equilibrium_specific_energy = cells(c, relaxation_energy_per_volume) * ratio / rho;
     const real_t new_specific_energy = e + fraction * (equilibrium_specific_energy - e);
-    if (!(new_volume_ratio > 0 && new_specific_energy > 0)) return;
-    density(p) = rho / new_volume_ratio;
-    specific_energy(p) = new_specific_energy;
+    // Selects, not early returns, and both fields written either way: so that a block of particles
+    // runs in vector lanes (for_each_index_in_lanes).
+    const bool relaxes = (fraction > 0) & (new_volume_ratio > 0) & (new_specific_energy > 0);
+    density(p) = relaxes ? rho / new_volume_ratio : rho;
+    specific_energy(p) = relaxes ? new_specific_energy : e;
   }
 };
 
@@ -627,7 +628,7 @@ class Transfers final : public TransferKernels {
         RelaxationSums{pt.mass, pt.density, pt.specific_energy, k.gamma});
     p2g_end(accumulation_.state(), sums);
     for_each_index_in_lanes("cell_relaxation", geometry_.num_cells(), CellRelaxation{sums, k.gamma, dt / k.cell_size});
-    for_each_particle("cell_pressure_relaxation", pt.count,
+    for_each_index_in_lanes("cell_pressure_relaxation", pt.count,
                       RelaxCellPressureAndLocate{pt.density, pt.specific_energy, pt.position_x, pt.position_y,
                                                  pt.cell, sums, k.gamma, locate});
   }
