@@ -326,7 +326,8 @@ void locate_particles(const ParticleBoundaries& boundaries, const ParticleState&
   const ParticleLocator locate = boundaries.locator();
   const RealView x = particles.position_x, y = particles.position_y;
   const IndexView cell = particles.cell;
-  for_each_index_in_lanes("particle_cells", particles.count, KOKKOS_LAMBDA(const index_t p) { cell(p) = locate(x(p), y(p)); });
+  for_each_index_in_lanes("particle_cells", particles.count,
+                          KOKKOS_LAMBDA(const index_t p) { cell(p) = locate(x(p), y(p)); });
 }
 
 double apply_particle_boundaries(const ParticleBoundaries& boundaries, const ParticleState& particles, real_t dt,

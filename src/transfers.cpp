@@ -629,8 +629,8 @@ class Transfers final : public TransferKernels {
     p2g_end(accumulation_.state(), sums);
     for_each_index_in_lanes("cell_relaxation", geometry_.num_cells(), CellRelaxation{sums, k.gamma, dt / k.cell_size});
     for_each_index_in_lanes("cell_pressure_relaxation", pt.count,
-                      RelaxCellPressureAndLocate{pt.density, pt.specific_energy, pt.position_x, pt.position_y,
-                                                 pt.cell, sums, k.gamma, locate});
+                            RelaxCellPressureAndLocate{pt.density, pt.specific_energy, pt.position_x,
+                                                       pt.position_y, pt.cell, sums, k.gamma, locate});
   }
 
  private:

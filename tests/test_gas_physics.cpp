@@ -130,8 +130,10 @@ TEST(SubCellConsistency, TheRelaxationPassKeepsEachCellsVolumeAndEnergyAndEvensI
     std::vector<real_t> rho = host_copy(pt.density);
     const std::vector<index_t> cell = host_copy(pt.cell);
     for (index_t k = 0; k < pt.count; ++k)
-      rho[k] *= 1 + (cell[k] == noisy_cell ? real_t(0.4) * (k % 2 ? 1 : -1) : real_t(0.04) * std::sin(real_t(1.7) * k));
-    Kokkos::deep_copy(pt.density, Kokkos::View<real_t*, Kokkos::HostSpace, Kokkos::MemoryUnmanaged>(rho.data(), rho.size()));
+      rho[k] *= 1 + (cell[k] == noisy_cell ? real_t(0.4) * (k % 2 ? 1 : -1)
+                                           : real_t(0.04) * std::sin(real_t(1.7) * k));
+    Kokkos::deep_copy(pt.density,
+                      Kokkos::View<real_t*, Kokkos::HostSpace, Kokkos::MemoryUnmanaged>(rho.data(), rho.size()));
     const std::vector<real_t> e = host_copy(pt.specific_energy), m = host_copy(pt.mass);
     // What the relaxation's sums are made of, per cell, before.
     struct Sums {
