@@ -134,6 +134,9 @@ IndexView select_indices_in_parts(const char* label, index_t first, index_t last
   const index_t part_size = static_cast<index_t>(buffer.extent(0)) / parts;
   index_t count = 0;
   for (index_t k = 0; k < parts; ++k) {
+    // (An empty part is skipped: the buffer may hold nothing, and memmove's pointers may not be null
+    // even for no bytes; UBSan flagged it.)
+    if (part_count[k] == 0) continue;
     std::memmove(buffer.data() + count, buffer.data() + part_size * k, sizeof(index_t) * part_count[k]);
     count += part_count[k];
   }
