@@ -180,10 +180,13 @@ TEST(SignedDistance, TheNearBoxHoldsEveryCellAnObstacleMayReachInto) {
     for (index_t ci = 0; ci < g.cells_x(); ++ci) {
       if (!near(ci + g.cells_x() * cj)) continue;
       ++flagged;
-      for (const double u : {0.0, 0.5, 1.0})
-        for (const double w : {0.0, 0.5, 1.0})
-          EXPECT_TRUE(rules.near_an_obstacle(g.node_x(ci) + u * g.spacing_x, g.node_y(cj) + w * g.spacing_y))
-              << "cell " << ci << ", " << cj;
+      // Its corners, edge midpoints and centre, the faces where the grid puts them (node_x(ci + 1),
+      // not node_x(ci) + spacing_x: without contracted multiply-adds, as in the debug build, the
+      // two differ in the last bit, and the second may lie in the next cell).
+      const double xs[] = {g.node_x(ci), 0.5 * (g.node_x(ci) + g.node_x(ci + 1)), g.node_x(ci + 1)};
+      const double ys[] = {g.node_y(cj), 0.5 * (g.node_y(cj) + g.node_y(cj + 1)), g.node_y(cj + 1)};
+      for (const double x : xs)
+        for (const double y : ys) EXPECT_TRUE(rules.near_an_obstacle(x, y)) << "cell " << ci << ", " << cj;
     }
   EXPECT_GT(flagged, 0);
   // The circle and a cell diagonal around it, to within a cell: [1.6, 2.4] x [0.6, 1.4].
