@@ -33,6 +33,7 @@
 
 #include <Kokkos_ScatterView.hpp>
 
+#include "kernels/index_lanes.hpp"
 #include "kernels/particle_sort.hpp"
 #include "kernels/shape_functions.hpp"
 
@@ -254,8 +255,8 @@ struct BatchLanes<Body, L, true> {
 // vector lane (Shape::fill_batch), then the body for each particle. Computing the weights is most
 // of a kernel's work, and it stays scalar when it is done particle by particle. The same sums as
 // the reference traversal (tested against it), to round-off. Elsewhere (GPUs) it is the reference
-// traversal.
-constexpr int stencil_batch_size = 32;
+// traversal. As many particles as index_lanes.hpp's blocks hold indices.
+constexpr int stencil_batch_size = index_block_size;
 
 // A batch's bodies, particle by particle (nvcc allows no `if constexpr` around what a device lambda
 // captures, hence overloads). `particle(l)` is lane l's particle.
@@ -864,33 +865,6 @@ void for_each_particle(const char* label, const ColouredTiles& tiles, const Body
         const index_t begin = offset(t), end = offset(t + 1);
         for (index_t s = begin; s < end; ++s) body(order(s));
       });
-}
-
-// Runs body(i) for i in [0, n), where body(i) writes only what belongs to i (a cell's row, a
-// particle's fields): on CPUs in blocks of stencil_batch_size indices, each a loop marked for
-// vectorisation (GCC keeps Kokkos' range loop scalar: it cannot tell that the iterations' View
-// accesses are independent), so that the body's divisions and square roots run 8 at a time with
-// AVX-512 (a body with a branch stays scalar: selects instead); one index per thread elsewhere
-// (GPUs).
-template <int L, class Body>
-KOKKOS_FORCEINLINE_FUNCTION void run_block_in_lanes(const Body& body, index_t first, int count) {
-  MPMFLOW_VECTORISE
-  for (int l = 0; l < count; ++l) body(first + l);
-}
-template <class Body>
-void for_each_index_in_blocks(const char* label, index_t n, const Body& body) {
-  constexpr int L = stencil_batch_size;
-  Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L), KOKKOS_LAMBDA(const index_t k) {
-        run_block_in_lanes<L>(body, k * L, n - k * L < L ? static_cast<int>(n - k * L) : L);
-      });
-}
-template <class Body>
-void for_each_index_in_lanes(const char* label, index_t n, const Body& body) {
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
-    for_each_index_in_blocks(label, n, body);
-  else
-    Kokkos::parallel_for(label, Kokkos::RangePolicy<ExecutionSpace>(0, n), body);
 }
 
 // P2C body: cell(c, first + k) += F_k(p) for the cell c holding particle p.

@@ -7,7 +7,7 @@
 #include <Kokkos_ScatterView.hpp>
 
 #include "gas_physics.hpp"
-#include "kernels/transfer_kernels.hpp"
+#include "kernels/index_lanes.hpp"
 
 namespace mpmflow {
 namespace {
@@ -222,10 +222,10 @@ ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab&
 namespace {
 
 // sum += what rule(p, sum) adds, over the particles a rule may reach (those ParticleBoundaries
-// does not leave alone). On CPUs in blocks of 32 particles: which of a block's particles a rule may
-// reach is tested as vector lanes (two loads and eight comparisons a particle), then the rules run
-// for those alone; Kokkos' loop over the particles one by one stayed scalar and branched on every
-// particle. Elsewhere (GPUs) one particle per thread.
+// does not leave alone). On CPUs in blocks of index_block_size particles: which of a block's
+// particles a rule may reach is tested as vector lanes (two loads and eight comparisons a
+// particle), then the rules run for those alone; Kokkos' loop over the particles one by one
+// stayed scalar and branched on every particle. Elsewhere (GPUs) one particle per thread.
 template <int L, class Rule>
 KOKKOS_FORCEINLINE_FUNCTION void apply_rules_in_block(const ParticleBoundaries& rules, const real_t* x,
                                                       const real_t* y, index_t first, int count, const Rule& rule,
@@ -239,7 +239,7 @@ KOKKOS_FORCEINLINE_FUNCTION void apply_rules_in_block(const ParticleBoundaries& 
 template <class Rule>
 double sum_over_particles_in_blocks(const char* label, const ParticleBoundaries& rules, const ParticleState& pt,
                                     const Rule& rule) {
-  constexpr int L = 32;
+  constexpr int L = index_block_size;
   const index_t n = pt.count;
   const RealView x = pt.position_x, y = pt.position_y;
   double sum = 0;
