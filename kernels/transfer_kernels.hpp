@@ -28,6 +28,7 @@
 // path, one particle per thread, as the paper's kernels; ParticleBatches and ColouredTiles compute
 // the stencils of batches of particles together in vector lanes on CPUs (Shape::fill_batch), the
 // solver's path, tested against the reference.
+#include <algorithm>
 #include <iterator>
 #include <type_traits>
 
@@ -387,16 +388,29 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 //
 // A team's tile on GPUs (ColouredCells), small: its nodes are staged in scratch memory (TeamTile).
 constexpr TileExtent team_tile{64, 4};
-// A thread's tile on CPUs (ColouredTiles), as large as the grid allows (walk_tile_for): each
-// colour's pass fetches the nodes its tiles reach, and the other passes fetch again those of a
-// tile's ring; a large tile's rows of nodes and of particles are long streams. A sorted P2G on one
-// thread, the cylinder at 448 x 224 reordered every step, took 40-42 ms a step with tiles of 64 x 4
-// cells, 35-36 with 128 x 16, and 33-37 with all the small tiles in one pass in order (README,
-// Benchmarks). The largest that gives at least min_walk_tiles tiles, so that the threads have
-// enough to share; chosen by the grid alone, so that the sums' order does not depend on the threads.
+// A thread's tile on CPUs (ColouredTiles), as large as the grid allows (walk_tile_for), chosen by
+// the grid alone, so that the sums' order does not depend on the threads. Each colour's pass
+// fetches the nodes its tiles reach, and the other passes fetch again those of a tile's ring; a
+// large tile's rows of nodes and of particles are long streams.
+//  - Rectangles (walk_rectangle_for): the largest of walk_tiles_largest_first that gives at least
+//    min_walk_tiles tiles, so that the threads have enough to share. A sorted P2G on one thread,
+//    the cylinder at 448 x 224 reordered every step, took 40-42 ms a step with tiles of 64 x 4
+//    cells, 35-36 with 128 x 16, and 33-37 with all the small tiles in one pass in order (README,
+//    Benchmarks).
+//  - Strips of whole rows of cells, walk_strip_heights rows tall, where they give as many tiles a
+//    pass as the rectangles (or enough_walk_tiles_a_pass): a strip is one stretch of the cell
+//    order, so that once reordered its particles are one run (its batches all consecutive, none
+//    cut at a row's end) and its window whole rows of nodes; with no tile beside it, two colour
+//    passes over the grid instead of four. On the cylinder at 448 x 224 (28 strips of 8 rows
+//    against 56 tiles of 128 x 16; kernel timer, least over the steps, reordered every 20 steps):
+//    on two threads P2G 13.4-14.4 -> 12.1-13.0 ms a step, the fused G2P + remap P2G 8.1-9.0 ->
+//    7.1-7.8, G2PD 9.8-10.5 -> 9.2-10.2; on one 26.4-26.5 -> 24.9-25.3, 15.4-15.6 -> 14.3-14.4 and
+//    19.5 -> 19.3. Strips of 16 rows (7 a pass) left two threads unevenly loaded: P2G 15.6 ms.
 constexpr TileExtent walk_tiles_largest_first[] = {{128, 16}, {64, 8}, {64, 4}};
 constexpr index_t min_walk_tiles = 32;
 constexpr TileExtent smallest_walk_tile = walk_tiles_largest_first[std::size(walk_tiles_largest_first) - 1];
+constexpr index_t walk_strip_heights[] = {8, 4};
+constexpr index_t enough_walk_tiles_a_pass = 64;  // two a thread for 32 threads
 
 // Tiles of `tile` cells over cells_x x cells_y cells along x and y, and in all.
 KOKKOS_INLINE_FUNCTION index_t tiles_along_x(index_t cells_x, TileExtent tile) { return (cells_x + tile.x - 1) / tile.x; }
@@ -405,20 +419,33 @@ KOKKOS_INLINE_FUNCTION index_t num_tiles(index_t cells_x, index_t cells_y, TileE
   return tiles_along_x(cells_x, tile) * tiles_along_y(cells_y, tile);
 }
 
-// The walk's tile for a grid of cells_x x cells_y cells (above).
-inline TileExtent walk_tile_for(index_t cells_x, index_t cells_y) {
+// The tiles of the fullest colour's pass (TileColour's colour 0): every other tile along x and y.
+inline index_t walk_tiles_a_pass(index_t cells_x, index_t cells_y, TileExtent tile) {
+  return (tiles_along_x(cells_x, tile) + 1) / 2 * ((tiles_along_y(cells_y, tile) + 1) / 2);
+}
+
+// The walk's rectangles, and its tile, for a grid of cells_x x cells_y cells (above).
+inline TileExtent walk_rectangle_for(index_t cells_x, index_t cells_y) {
   for (const TileExtent tile : walk_tiles_largest_first)
     if (num_tiles(cells_x, cells_y, tile) >= min_walk_tiles) return tile;
   return smallest_walk_tile;
 }
+inline TileExtent walk_tile_for(index_t cells_x, index_t cells_y) {
+  const TileExtent rectangle = walk_rectangle_for(cells_x, cells_y);
+  const index_t wanted = std::min(walk_tiles_a_pass(cells_x, cells_y, rectangle), enough_walk_tiles_a_pass);
+  for (const index_t height : walk_strip_heights) {
+    const TileExtent strip{cells_x, height};
+    if (walk_tiles_a_pass(cells_x, cells_y, strip) >= wanted) return strip;
+  }
+  return rectangle;
+}
 
 // Whether the walk keeps `threads` threads busy on a grid of cells_x x cells_y cells: a colour's pass
-// (a quarter of the tiles) holds at least two tiles a thread (taken as threads come free), so that
-// numerics/p2g = automatic can take the sorted P2G on CPUs (transfers.cpp). Its tiles are chosen
-// by the grid alone, so a small grid, or a CPU of many threads, leaves threads idle in each pass.
+// holds at least two tiles a thread (taken as threads come free), so that numerics/p2g = automatic
+// can take the sorted P2G on CPUs (transfers.cpp). Its tiles are chosen by the grid alone, so a
+// small grid, or a CPU of many threads, leaves threads idle in each pass.
 inline bool walk_keeps_threads_busy(index_t cells_x, index_t cells_y, int threads) {
-  const index_t tiles = num_tiles(cells_x, cells_y, walk_tile_for(cells_x, cells_y));
-  return tiles / 4 >= 2 * static_cast<index_t>(threads);
+  return walk_tiles_a_pass(cells_x, cells_y, walk_tile_for(cells_x, cells_y)) >= 2 * static_cast<index_t>(threads);
 }
 
 // Each cell's tile of `extent` cells, tiles numbered row of tiles by row of tiles (ColouredTiles' grouping).
@@ -826,6 +853,9 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
   constexpr TileExtent tile = std::is_same<Coloured, ColouredCells>::value ? team_tile : smallest_walk_tile;
   static_assert(tile.x > Shape::colour_period - 2 && tile.y > Shape::colour_period - 2,
                 "tiles of one colour must not share a node");
+  // (A strip has no tile beside it: only its height counts.)
+  static_assert(walk_strip_heights[std::size(walk_strip_heights) - 1] > Shape::colour_period - 2,
+                "strips of one colour must not share a node");
   if constexpr (std::is_same<Coloured, ColouredCells>::value)
     walk_tiles_in_teams(label, shape, particles, coloured, body);
   else if constexpr (StagesInWindow<Body>::value && std::is_same<MemorySpace, Kokkos::HostSpace>::value)

@@ -652,37 +652,54 @@ TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
   for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
 }
 
-// The walk's tiles: the largest that leave at least min_walk_tiles tiles, else the smallest.
-TEST(TileOrder, TakesTheLargestTileThatLeavesEnoughTiles) {
+// The walk's tiles: strips of whole rows, the tallest that gives as many tiles a colour's pass as
+// the rectangles (or enough_walk_tiles_a_pass); else the rectangles: the largest that leave at
+// least min_walk_tiles tiles, else the smallest.
+TEST(TileOrder, TakesStripsWhereTheyGiveAsManyTilesAPassElseTheLargestRectangle) {
   const auto expect_tile = [](index_t cells_x, index_t cells_y, index_t x, index_t y) {
     const TileExtent tile = walk_tile_for(cells_x, cells_y);
     EXPECT_EQ(tile.x, x) << cells_x << " x " << cells_y << " cells";
     EXPECT_EQ(tile.y, y) << cells_x << " x " << cells_y << " cells";
   };
-  expect_tile(448, 224, 128, 16);  // 4 x 14 tiles
-  expect_tile(256, 64, 64, 8);     // 128 x 16: 2 x 4 tiles, too few; 64 x 8: 4 x 8
-  expect_tile(60, 30, 64, 4);      // too few of any: the smallest
+  expect_tile(448, 224, 448, 8);     // 28 strips, 14 a pass, as the 4 x 14 rectangles of 128 x 16
+  expect_tile(256, 64, 256, 4);      // rectangles of 64 x 8 (4 x 8), 8 a pass: strips of 4 rows
+  expect_tile(1024, 512, 1024, 4);   // rectangles of 128 x 16, 64 a pass: strips of 8 rows give 32
+  expect_tile(10000, 5000, 10000, 8);  // 313 strips a pass, above enough_walk_tiles_a_pass
+  expect_tile(1000, 20, 64, 8);      // wide and short: 3 strips (2 a pass) against 16 x 3 rectangles
   for (index_t cells_x : {10, 100, 300, 1000})
     for (index_t cells_y : {3, 40, 200, 900}) {
-      const TileExtent tile = walk_tile_for(cells_x, cells_y);
-      const bool smallest = tile.x == smallest_walk_tile.x && tile.y == smallest_walk_tile.y;
-      EXPECT_TRUE(smallest || num_tiles(cells_x, cells_y, tile) >= min_walk_tiles) << cells_x << " x " << cells_y;
+      SCOPED_TRACE(std::to_string(cells_x) + " x " + std::to_string(cells_y) + " cells");
+      const TileExtent rectangle = walk_rectangle_for(cells_x, cells_y);
+      const bool smallest = rectangle.x == smallest_walk_tile.x && rectangle.y == smallest_walk_tile.y;
+      EXPECT_TRUE(smallest || num_tiles(cells_x, cells_y, rectangle) >= min_walk_tiles);
       for (const TileExtent larger : walk_tiles_largest_first) {
-        if (larger.x == tile.x && larger.y == tile.y) break;
-        EXPECT_LT(num_tiles(cells_x, cells_y, larger), min_walk_tiles) << cells_x << " x " << cells_y;
+        if (larger.x == rectangle.x && larger.y == rectangle.y) break;
+        EXPECT_LT(num_tiles(cells_x, cells_y, larger), min_walk_tiles);
+      }
+      const index_t wanted =
+          std::min(walk_tiles_a_pass(cells_x, cells_y, rectangle), enough_walk_tiles_a_pass);
+      const TileExtent tile = walk_tile_for(cells_x, cells_y);
+      const bool strip = tile.x != rectangle.x || tile.y != rectangle.y;
+      for (const index_t taller : walk_strip_heights) {  // (all of them when the rectangles stay)
+        if (strip && tile.y == taller) break;
+        EXPECT_LT(walk_tiles_a_pass(cells_x, cells_y, TileExtent{cells_x, taller}), wanted);
+      }
+      if (strip) {
+        EXPECT_EQ(tile.x, cells_x);
+        EXPECT_GE(walk_tiles_a_pass(cells_x, cells_y, tile), wanted);
       }
     }
 }
 
-// numerics/p2g = automatic takes the sorted walk on CPUs where each colour has at least two tiles a
-// thread: at 448 x 224 cells (56 tiles of 128 x 16, 14 a colour) up to 7 threads; a 100 x 1 grid
-// (2 tiles of 64 x 4) none.
+// numerics/p2g = automatic takes the sorted walk on CPUs where each colour's pass has at least two
+// tiles a thread: at 448 x 224 cells (28 strips of 8 rows, 14 a pass) up to 7 threads; a 100 x 1
+// grid (one strip) none.
 TEST(TileOrder, TheWalkKeepsThreadsBusyWithTwoTilesAThreadInEachColour) {
   EXPECT_TRUE(walk_keeps_threads_busy(448, 224, 1));
   EXPECT_TRUE(walk_keeps_threads_busy(448, 224, 7));
   EXPECT_FALSE(walk_keeps_threads_busy(448, 224, 8));
   EXPECT_FALSE(walk_keeps_threads_busy(100, 1, 1));
-  EXPECT_TRUE(walk_keeps_threads_busy(1024, 512, 32));  // 8 x 32 tiles of 128 x 16, 64 a colour
+  EXPECT_TRUE(walk_keeps_threads_busy(1024, 512, 32));  // 128 strips of 4 rows, 64 a pass
   EXPECT_FALSE(walk_keeps_threads_busy(1024, 512, 33));
 }
 
@@ -718,18 +735,31 @@ TEST(TileOrder, GroupsParticlesByTileInIndexOrder) {
   for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
 }
 
-// A grid of 3 rows of tiles, and particles in cell order of which every fifth was then moved a
-// cell row up (into the next tile where it crosses a tile's edge): tiles holding runs of
-// consecutive particles and listed ones, as the coloured traversal meets them once particles move.
+// A grid of tiles, and particles in cell order of which every fifth was then moved a cell row up
+// (into the next tile where it crosses a tile's edge): tiles holding runs of consecutive particles
+// and listed ones, as the coloured traversal meets them once particles move. On the grids below
+// the walk takes strips (three_rows_of_tiles) or rectangles (wide_and_short), as
+// ColouredTiles.TheTestGridsWalkStripsAndRectangles checks.
 struct TilesOfMovedParticles {
   GridGeometry g;
   DeviceParticles d;
-  TilesOfMovedParticles() : g(three_rows_of_tiles()), d(to_device(g, moved_up(g, regular_particles(g, 3)))) {}
+  explicit TilesOfMovedParticles(const GridGeometry& grid = three_rows_of_tiles())
+      : g(grid), d(to_device(g, moved_up(g, regular_particles(g, 3)))) {}
+  // 11 x 14 cells: 4 strips of 4 rows, the last one partial.
   static GridGeometry three_rows_of_tiles() {
     GridGeometry g = test_grid();
     g.nodes_y = 3 * smallest_walk_tile.y + 3;
     return g;
   }
+  // 1000 x 20 cells: 16 x 3 rectangles of 64 x 8 (strips would give too few a pass), the last
+  // column and row of them partial.
+  static GridGeometry wide_and_short() {
+    GridGeometry g = test_grid();
+    g.nodes_x = 1001;
+    g.nodes_y = 21;
+    return g;
+  }
+  static std::vector<GridGeometry> grids() { return {three_rows_of_tiles(), wide_and_short()}; }
   static HostParticles moved_up(const GridGeometry& g, HostParticles h) {
     for (size_t k = 0; k < h.y.size(); k += 5)
       if (h.y[k] + g.spacing_y < g.node_y(g.cells_y() - 1)) h.y[k] += g.spacing_y;
@@ -740,8 +770,8 @@ struct TilesOfMovedParticles {
 // The coloured traversal on CPUs takes a batch of consecutive particles as such and another as
 // listed (TilesOfMovedParticles). Either way the sums are the reference traversal's, to round-off.
 template <class Make>
-void expect_coloured_runs_match_the_reference() {
-  const TilesOfMovedParticles moved;
+void expect_coloured_runs_match_the_reference(const GridGeometry& grid) {
+  const TilesOfMovedParticles moved(grid);
   const GridGeometry& g = moved.g;
   const DeviceParticles& d = moved.d;
   const auto shape = Make::make(g, d.count);
@@ -771,9 +801,22 @@ void expect_coloured_runs_match_the_reference() {
       EXPECT_NEAR(c(i, k), r(i, k), 1e-13 * largest) << "node " << i << ", column " << k;
   }
 }
+TEST(ColouredTiles, TheTestGridsWalkStripsAndRectangles) {
+  const GridGeometry strips = TilesOfMovedParticles::three_rows_of_tiles();
+  const TileExtent strip = walk_tile_for(strips.cells_x(), strips.cells_y());
+  EXPECT_EQ(strip.x, strips.cells_x());
+  EXPECT_EQ(strip.y, 4);
+  const GridGeometry rectangles = TilesOfMovedParticles::wide_and_short();
+  const TileExtent rectangle = walk_tile_for(rectangles.cells_x(), rectangles.cells_y());
+  EXPECT_EQ(rectangle.x, 64);
+  EXPECT_EQ(rectangle.y, 8);
+}
 TEST(ColouredTiles, ConsecutiveAndListedBatchesGiveTheReferenceSums) {
-  expect_coloured_runs_match_the_reference<MakeLinear>();
-  expect_coloured_runs_match_the_reference<MakeGimp>();
+  for (const GridGeometry& grid : TilesOfMovedParticles::grids()) {
+    SCOPED_TRACE(std::to_string(grid.cells_x()) + " x " + std::to_string(grid.cells_y()) + " cells");
+    expect_coloured_runs_match_the_reference<MakeLinear>(grid);
+    expect_coloured_runs_match_the_reference<MakeGimp>(grid);
+  }
 }
 
 // Each (node, column) of `actual` is the reference's to round-off (relative to the column's largest)
@@ -802,10 +845,10 @@ void expect_node_columns_match(const NodeFieldsView& actual, const NodeFieldsVie
 // window into the node fields (walk_tiles_staged); with its columns further apart than a window
 // is wide, straight into the node fields (walk_tiles). Either way the reference traversal's sums,
 // to round-off, and nothing in the columns between (TilesOfMovedParticles: consecutive and listed
-// batches; the last column of tiles partial).
+// batches; strips and rectangles, the last of them partial).
 template <class Make>
-void expect_staged_p2g_matches_the_reference(int first_vector_column) {
-  const TilesOfMovedParticles moved;
+void expect_staged_p2g_matches_the_reference(const GridGeometry& grid, int first_vector_column) {
+  const TilesOfMovedParticles moved(grid);
   const GridGeometry& g = moved.g;
   const DeviceParticles& d = moved.d;
   const auto shape = Make::make(g, d.count);
@@ -825,17 +868,20 @@ void expect_staged_p2g_matches_the_reference(int first_vector_column) {
 TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
   using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearField, VaryingVectors>;
   static_assert(StagesInWindow<Body>::value, "the step's P2G stages its tiles on CPUs");
-  for (int first_vector_column : {2, 3, NodeMajorWindow::width + 1}) {  // in a window (2, 3: a gap), or not
-    SCOPED_TRACE(first_vector_column);
-    expect_staged_p2g_matches_the_reference<MakeLinear>(first_vector_column);
-    expect_staged_p2g_matches_the_reference<MakeGimp>(first_vector_column);
-    expect_staged_p2g_matches_the_reference<MakeBSpline>(first_vector_column);
-  }
+  for (const GridGeometry& grid : TilesOfMovedParticles::grids())
+    for (int first_vector_column : {2, 3, NodeMajorWindow::width + 1}) {  // in a window (2, 3: a gap), or not
+      SCOPED_TRACE(std::to_string(grid.cells_x()) + " x " + std::to_string(grid.cells_y()) + " cells, column " +
+                   std::to_string(first_vector_column));
+      expect_staged_p2g_matches_the_reference<MakeLinear>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeGimp>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeBSpline>(grid, first_vector_column);
+    }
 }
 
 // TilesOfMovedParticles with the shape of Make and the particles grouped by tile (ColouredTiles).
 template <class Make>
 struct MovedParticlesByTile : TilesOfMovedParticles {
+  explicit MovedParticlesByTile(const GridGeometry& grid) : TilesOfMovedParticles(grid) {}
   decltype(Make::make(std::declval<const GridGeometry&>(), index_t(0))) shape = Make::make(g, d.count);
   ColouredTraversal<Coloured> by_tile = ColouredTraversal<Coloured>::of(g, d);
 };
@@ -872,15 +918,15 @@ struct StoreValuesAndGradients {
 // tile's nodes copied into a node-major window of its thread's, the particles reading them from
 // there (walk_tiles_through_windows). The reference traversal's values and gradients, to
 // round-off, for node columns that differ from one another and from node to node, from the first
-// or a later column of the node fields (TilesOfMovedParticles: consecutive and listed batches; the
-// last column of tiles partial).
+// or a later column of the node fields (TilesOfMovedParticles: consecutive and listed batches;
+// strips and rectangles, the last of them partial).
 template <class Make, int N>
-void expect_windowed_g2p_and_g2pd_matches_the_reference(int first_column) {
+void expect_windowed_g2p_and_g2pd_matches_the_reference(const GridGeometry& grid, int first_column) {
   using Sink = StoreValuesAndGradients<N>;
   using Shape = decltype(Make::make(std::declval<const GridGeometry&>(), index_t(0)));
   static_assert(ReadsThroughWindow<G2PAndG2PDBody<NodeColumns<N>, Sink, Shape::stencil_width>>::value,
                 "read through windows on CPUs");
-  const MovedParticlesByTile<Make> moved;
+  const MovedParticlesByTile<Make> moved(grid);
   const GridGeometry& g = moved.g;
   const DeviceParticles& d = moved.d;
   const NodeFieldsView nodal = varied_node_columns(g, first_column + N);
@@ -917,11 +963,11 @@ struct StoreValuesAndCarry {
 // (walk_tiles_through_windows): the reference traversal's values and sums, to round-off, and
 // nothing in the target's other columns.
 template <class Make, int N, int M>
-void expect_windowed_g2p_then_p2g_matches_the_reference(int first_read, int first_written) {
+void expect_windowed_g2p_then_p2g_matches_the_reference(const GridGeometry& grid, int first_read, int first_written) {
   using Update = StoreValuesAndCarry<N, M>;
   static_assert(ReadsThroughWindow<G2PThenP2GBody<NodeColumns<N>, Update, DirectNodeAccess>>::value,
                 "read through windows on CPUs");
-  const MovedParticlesByTile<Make> moved;
+  const MovedParticlesByTile<Make> moved(grid);
   const GridGeometry& g = moved.g;
   const DeviceParticles& d = moved.d;
   const NodeFieldsView nodal = varied_node_columns(g, first_read + N);
@@ -944,11 +990,14 @@ void expect_windowed_g2p_then_p2g_matches_the_reference(int first_read, int firs
   expect_node_columns_match(windowed, reference, [&](int k) { return k >= first_written && k < first_written + M; });
 }
 TEST(ColouredTiles, WindowedG2PThenP2GGivesTheReferenceValuesAndSums) {
-  expect_windowed_g2p_then_p2g_matches_the_reference<MakeLinear, 2, 2>(0, 0);  // the step's
-  expect_windowed_g2p_then_p2g_matches_the_reference<MakeGimp, 2, 2>(0, 1);
-  expect_windowed_g2p_then_p2g_matches_the_reference<MakeBSpline, 2, 2>(3, 1);
-  expect_windowed_g2p_then_p2g_matches_the_reference<MakeGimp, 1, 3>(2, 0);
-  expect_windowed_g2p_then_p2g_matches_the_reference<MakeGimp, 3, 5>(0, 2);  // a window of 8
+  for (const GridGeometry& grid : TilesOfMovedParticles::grids()) {
+    SCOPED_TRACE(std::to_string(grid.cells_x()) + " x " + std::to_string(grid.cells_y()) + " cells");
+    expect_windowed_g2p_then_p2g_matches_the_reference<MakeLinear, 2, 2>(grid, 0, 0);  // the step's
+    expect_windowed_g2p_then_p2g_matches_the_reference<MakeGimp, 2, 2>(grid, 0, 1);
+    expect_windowed_g2p_then_p2g_matches_the_reference<MakeBSpline, 2, 2>(grid, 3, 1);
+    expect_windowed_g2p_then_p2g_matches_the_reference<MakeGimp, 1, 3>(grid, 2, 0);
+    expect_windowed_g2p_then_p2g_matches_the_reference<MakeGimp, 3, 5>(grid, 0, 2);  // a window of 8
+  }
 }
 
 // A sink not marked as writing only its particle (one that adds to its particle's cell would be).
@@ -962,11 +1011,14 @@ TEST(ColouredTiles, WindowedValuesAndGradientsAreTheReferenceOnes) {
                 "only sinks that write their own particle");
   static_assert(!ReadsThroughWindow<G2PAndG2PDBody<NodeColumn, StoreValueAndGradient<0>, 3>>::value,
                 "only node columns can be copied into a window");
-  expect_windowed_g2p_and_g2pd_matches_the_reference<MakeLinear, 5>(2);
-  expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, 5>(2);
-  expect_windowed_g2p_and_g2pd_matches_the_reference<MakeBSpline, 5>(2);
-  expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, 1>(0);
-  expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, NodeMajorWindow::width>(1);
+  for (const GridGeometry& grid : TilesOfMovedParticles::grids()) {
+    SCOPED_TRACE(std::to_string(grid.cells_x()) + " x " + std::to_string(grid.cells_y()) + " cells");
+    expect_windowed_g2p_and_g2pd_matches_the_reference<MakeLinear, 5>(grid, 2);
+    expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, 5>(grid, 2);
+    expect_windowed_g2p_and_g2pd_matches_the_reference<MakeBSpline, 5>(grid, 2);
+    expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, 1>(grid, 0);
+    expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, NodeMajorWindow::width>(grid, 1);
+  }
 }
 
 // select_indices, with a buffer kept from call to call and without: the selected indices of
