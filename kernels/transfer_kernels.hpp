@@ -419,9 +419,38 @@ KOKKOS_INLINE_FUNCTION index_t num_tiles(index_t cells_x, index_t cells_y, TileE
   return tiles_along_x(cells_x, tile) * tiles_along_y(cells_y, tile);
 }
 
-// The tiles of the fullest colour's pass (TileColour's colour 0): every other tile along x and y.
+// The tiles of `tile` cells of one of the four colours: colour (a, b) holds tiles (a + 2 i, b + 2 j),
+// `columns` of them per row, `rows` rows; its k-th tile, that tile's number and its cells.
+struct TileColour {
+  index_t a = 0, b = 0, columns = 0, rows = 0;
+  index_t cells_x = 0, cells_y = 0, tiles_x = 0;
+  TileExtent tile;
+
+  TileColour(index_t cells_x_, index_t cells_y_, int colour, TileExtent tile_)
+      : a(colour % 2), b(colour / 2), cells_x(cells_x_), cells_y(cells_y_), tiles_x(tiles_along_x(cells_x_, tile_)),
+        tile(tile_) {
+    const index_t tiles_y = tiles_along_y(cells_y, tile);
+    columns = (tiles_x - a + 1) / 2 > 0 ? (tiles_x - a + 1) / 2 : 0;
+    rows = (tiles_y - b + 1) / 2 > 0 ? (tiles_y - b + 1) / 2 : 0;
+  }
+  index_t tiles() const { return columns * rows; }
+  // Tile k's place among all tiles, (tile_x(k), tile_y(k)), and its number there.
+  KOKKOS_INLINE_FUNCTION index_t tile_x(index_t k) const { return a + 2 * (k % columns); }
+  KOKKOS_INLINE_FUNCTION index_t tile_y(index_t k) const { return b + 2 * (k / columns); }
+  KOKKOS_INLINE_FUNCTION index_t tile_number(index_t k) const { return tile_x(k) + tiles_x * tile_y(k); }
+  // The cells [ci_begin, ci_end) x [cj_begin, cj_end) of tile k.
+  KOKKOS_INLINE_FUNCTION void cells_of_tile(index_t k, index_t& ci_begin, index_t& ci_end, index_t& cj_begin,
+                                            index_t& cj_end) const {
+    ci_begin = tile_x(k) * tile.x;
+    cj_begin = tile_y(k) * tile.y;
+    ci_end = ci_begin + tile.x < cells_x ? ci_begin + tile.x : cells_x;
+    cj_end = cj_begin + tile.y < cells_y ? cj_begin + tile.y : cells_y;
+  }
+};
+
+// The tiles of the fullest colour's pass: colour 0's.
 inline index_t walk_tiles_a_pass(index_t cells_x, index_t cells_y, TileExtent tile) {
-  return (tiles_along_x(cells_x, tile) + 1) / 2 * ((tiles_along_y(cells_y, tile) + 1) / 2);
+  return TileColour(cells_x, cells_y, 0, tile).tiles();
 }
 
 // The walk's rectangles, and its tile, for a grid of cells_x x cells_y cells (above).
@@ -480,35 +509,6 @@ class TileOrder {
   CellOrder order_;
   IndexView tile_of_cell_;
   ColouredTiles tiles_;
-};
-
-// The tiles of `tile` cells of one of the four colours: colour (a, b) holds tiles (a + 2 i, b + 2 j),
-// `columns` of them per row, `rows` rows; its k-th tile, that tile's number and its cells.
-struct TileColour {
-  index_t a = 0, b = 0, columns = 0, rows = 0;
-  index_t cells_x = 0, cells_y = 0, tiles_x = 0;
-  TileExtent tile;
-
-  TileColour(index_t cells_x_, index_t cells_y_, int colour, TileExtent tile_)
-      : a(colour % 2), b(colour / 2), cells_x(cells_x_), cells_y(cells_y_), tiles_x(tiles_along_x(cells_x_, tile_)),
-        tile(tile_) {
-    const index_t tiles_y = tiles_along_y(cells_y, tile);
-    columns = (tiles_x - a + 1) / 2 > 0 ? (tiles_x - a + 1) / 2 : 0;
-    rows = (tiles_y - b + 1) / 2 > 0 ? (tiles_y - b + 1) / 2 : 0;
-  }
-  index_t tiles() const { return columns * rows; }
-  // Tile k's place among all tiles, (tile_x(k), tile_y(k)), and its number there.
-  KOKKOS_INLINE_FUNCTION index_t tile_x(index_t k) const { return a + 2 * (k % columns); }
-  KOKKOS_INLINE_FUNCTION index_t tile_y(index_t k) const { return b + 2 * (k / columns); }
-  KOKKOS_INLINE_FUNCTION index_t tile_number(index_t k) const { return tile_x(k) + tiles_x * tile_y(k); }
-  // The cells [ci_begin, ci_end) x [cj_begin, cj_end) of tile k.
-  KOKKOS_INLINE_FUNCTION void cells_of_tile(index_t k, index_t& ci_begin, index_t& ci_end, index_t& cj_begin,
-                                            index_t& cj_end) const {
-    ci_begin = tile_x(k) * tile.x;
-    cj_begin = tile_y(k) * tile.y;
-    ci_end = ci_begin + tile.x < cells_x ? ci_begin + tile.x : cells_x;
-    cj_end = cj_begin + tile.y < cells_y ? cj_begin + tile.y : cells_y;
-  }
 };
 
 // The next batch of a tile's particles from slot s of its list `order` (slots before `end`), as the
