@@ -274,7 +274,6 @@ double triad_GBps(long passes, double seconds) {
 }
 
 void BM_Triad(benchmark::State& state) {
-  triad_arrays();
   double seconds = 0;
   for (auto _ : state) seconds += triad_pass_seconds();
   const double GBps = triad_GBps(state.iterations(), seconds);

@@ -652,6 +652,11 @@ TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
   for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
 }
 
+// A grid's size for a test's trace: "<cells_x> x <cells_y> cells".
+std::string cells_named(index_t cells_x, index_t cells_y) {
+  return std::to_string(cells_x) + " x " + std::to_string(cells_y) + " cells";
+}
+
 // The walk's tiles: strips of whole rows, the tallest that gives as many tiles a colour's pass as
 // the rectangles (or enough_walk_tiles_a_pass); else the rectangles: the largest that leave at
 // least min_walk_tiles tiles, else the smallest.
@@ -668,7 +673,7 @@ TEST(TileOrder, TakesStripsWhereTheyGiveAsManyTilesAPassElseTheLargestRectangle)
   expect_tile(1000, 20, 64, 8);      // wide and short: 3 strips (2 a pass) against 16 x 3 rectangles
   for (index_t cells_x : {10, 100, 300, 1000})
     for (index_t cells_y : {3, 40, 200, 900}) {
-      SCOPED_TRACE(std::to_string(cells_x) + " x " + std::to_string(cells_y) + " cells");
+      SCOPED_TRACE(cells_named(cells_x, cells_y));
       const TileExtent rectangle = walk_rectangle_for(cells_x, cells_y);
       const bool smallest = rectangle.x == smallest_walk_tile.x && rectangle.y == smallest_walk_tile.y;
       EXPECT_TRUE(smallest || num_tiles(cells_x, cells_y, rectangle) >= min_walk_tiles);
@@ -813,7 +818,7 @@ TEST(ColouredTiles, TheTestGridsWalkStripsAndRectangles) {
 }
 TEST(ColouredTiles, ConsecutiveAndListedBatchesGiveTheReferenceSums) {
   for (const GridGeometry& grid : TilesOfMovedParticles::grids()) {
-    SCOPED_TRACE(std::to_string(grid.cells_x()) + " x " + std::to_string(grid.cells_y()) + " cells");
+    SCOPED_TRACE(cells_named(grid.cells_x(), grid.cells_y()));
     expect_coloured_runs_match_the_reference<MakeLinear>(grid);
     expect_coloured_runs_match_the_reference<MakeGimp>(grid);
   }
@@ -870,8 +875,7 @@ TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
   static_assert(StagesInWindow<Body>::value, "the step's P2G stages its tiles on CPUs");
   for (const GridGeometry& grid : TilesOfMovedParticles::grids())
     for (int first_vector_column : {2, 3, NodeMajorWindow::width + 1}) {  // in a window (2, 3: a gap), or not
-      SCOPED_TRACE(std::to_string(grid.cells_x()) + " x " + std::to_string(grid.cells_y()) + " cells, column " +
-                   std::to_string(first_vector_column));
+      SCOPED_TRACE(cells_named(grid.cells_x(), grid.cells_y()) + ", column " + std::to_string(first_vector_column));
       expect_staged_p2g_matches_the_reference<MakeLinear>(grid, first_vector_column);
       expect_staged_p2g_matches_the_reference<MakeGimp>(grid, first_vector_column);
       expect_staged_p2g_matches_the_reference<MakeBSpline>(grid, first_vector_column);
@@ -991,7 +995,7 @@ void expect_windowed_g2p_then_p2g_matches_the_reference(const GridGeometry& grid
 }
 TEST(ColouredTiles, WindowedG2PThenP2GGivesTheReferenceValuesAndSums) {
   for (const GridGeometry& grid : TilesOfMovedParticles::grids()) {
-    SCOPED_TRACE(std::to_string(grid.cells_x()) + " x " + std::to_string(grid.cells_y()) + " cells");
+    SCOPED_TRACE(cells_named(grid.cells_x(), grid.cells_y()));
     expect_windowed_g2p_then_p2g_matches_the_reference<MakeLinear, 2, 2>(grid, 0, 0);  // the step's
     expect_windowed_g2p_then_p2g_matches_the_reference<MakeGimp, 2, 2>(grid, 0, 1);
     expect_windowed_g2p_then_p2g_matches_the_reference<MakeBSpline, 2, 2>(grid, 3, 1);
@@ -1012,7 +1016,7 @@ TEST(ColouredTiles, WindowedValuesAndGradientsAreTheReferenceOnes) {
   static_assert(!ReadsThroughWindow<G2PAndG2PDBody<NodeColumn, StoreValueAndGradient<0>, 3>>::value,
                 "only node columns can be copied into a window");
   for (const GridGeometry& grid : TilesOfMovedParticles::grids()) {
-    SCOPED_TRACE(std::to_string(grid.cells_x()) + " x " + std::to_string(grid.cells_y()) + " cells");
+    SCOPED_TRACE(cells_named(grid.cells_x(), grid.cells_y()));
     expect_windowed_g2p_and_g2pd_matches_the_reference<MakeLinear, 5>(grid, 2);
     expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, 5>(grid, 2);
     expect_windowed_g2p_and_g2pd_matches_the_reference<MakeBSpline, 5>(grid, 2);
