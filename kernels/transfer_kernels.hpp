@@ -389,7 +389,8 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 // A team's tile on GPUs (ColouredCells), small: its nodes are staged in scratch memory (TeamTile).
 constexpr TileExtent team_tile{64, 4};
 // A thread's tile on CPUs (ColouredTiles), as large as the grid allows (walk_tile_for), chosen by
-// the grid alone, so that the sums' order does not depend on the threads. Each colour's pass
+// the grid and the case's reordering alone, so that the sums' order does not depend on the
+// threads. Each colour's pass
 // fetches the nodes its tiles reach, and the other passes fetch again those of a tile's ring; a
 // large tile's rows of nodes and of particles are long streams.
 //  - Rectangles (walk_rectangle_for): the largest of walk_tiles_largest_first that gives at least
@@ -397,8 +398,9 @@ constexpr TileExtent team_tile{64, 4};
 //    the cylinder at 448 x 224 reordered every step, took 40-42 ms a step with tiles of 64 x 4
 //    cells, 35-36 with 128 x 16, and 33-37 with all the small tiles in one pass in order (README,
 //    Benchmarks).
-//  - Strips of whole rows of cells, walk_strip_heights rows tall, where they give as many tiles a
-//    pass as the rectangles (or enough_walk_tiles_a_pass): a strip is one stretch of the cell
+//  - Where the run reorders its particles by cell, strips of whole rows of cells,
+//    walk_strip_heights rows tall, where they give as many tiles a pass as the rectangles (or
+//    enough_walk_tiles_a_pass): a strip is one stretch of the cell
 //    order, so that once reordered its particles are one run (its batches all consecutive, none
 //    cut at a row's end) and its window whole rows of nodes; with no tile beside it, two colour
 //    passes over the grid instead of four. On the cylinder at 448 x 224 (28 strips of 8 rows
@@ -406,6 +408,9 @@ constexpr TileExtent team_tile{64, 4};
 //    on two threads P2G 13.4-14.4 -> 12.1-13.0 ms a step, the fused G2P + remap P2G 8.1-9.0 ->
 //    7.1-7.8, G2PD 9.8-10.5 -> 9.2-10.2; on one 26.4-26.5 -> 24.9-25.3, 15.4-15.6 -> 14.3-14.4 and
 //    19.5 -> 19.3. Strips of 16 rows (7 a pass) left two threads unevenly loaded: P2G 15.6 ms.
+//    Particles never reordered drift out of cell order, and a strip's particles then reach all
+//    over its window, twice a rectangle's: in random order P2G took a tenth longer in strips than
+//    in rectangles (the benchmark's never-reordered rows), so such a run keeps the rectangles.
 constexpr TileExtent walk_tiles_largest_first[] = {{128, 16}, {64, 8}, {64, 4}};
 constexpr index_t min_walk_tiles = 32;
 constexpr TileExtent smallest_walk_tile = walk_tiles_largest_first[std::size(walk_tiles_largest_first) - 1];
@@ -453,14 +458,16 @@ inline index_t walk_tiles_a_pass(index_t cells_x, index_t cells_y, TileExtent ti
   return TileColour(cells_x, cells_y, 0, tile).tiles();
 }
 
-// The walk's rectangles, and its tile, for a grid of cells_x x cells_y cells (above).
+// The walk's rectangles, and its tile, for a grid of cells_x x cells_y cells and particles in
+// `order` (above).
 inline TileExtent walk_rectangle_for(index_t cells_x, index_t cells_y) {
   for (const TileExtent tile : walk_tiles_largest_first)
     if (num_tiles(cells_x, cells_y, tile) >= min_walk_tiles) return tile;
   return smallest_walk_tile;
 }
-inline TileExtent walk_tile_for(index_t cells_x, index_t cells_y) {
+inline TileExtent walk_tile_for(index_t cells_x, index_t cells_y, ParticleOrder order) {
   const TileExtent rectangle = walk_rectangle_for(cells_x, cells_y);
+  if (order == ParticleOrder::never_reordered) return rectangle;
   const index_t wanted = std::min(walk_tiles_a_pass(cells_x, cells_y, rectangle), enough_walk_tiles_a_pass);
   for (const index_t height : walk_strip_heights) {
     const TileExtent strip{cells_x, height};
@@ -471,10 +478,11 @@ inline TileExtent walk_tile_for(index_t cells_x, index_t cells_y) {
 
 // Whether the walk keeps `threads` threads busy on a grid of cells_x x cells_y cells: a colour's pass
 // holds at least two tiles a thread (taken as threads come free), so that numerics/p2g = automatic
-// can take the sorted P2G on CPUs (transfers.cpp). Its tiles are chosen by the grid alone, so a
-// small grid, or a CPU of many threads, leaves threads idle in each pass.
-inline bool walk_keeps_threads_busy(index_t cells_x, index_t cells_y, int threads) {
-  return walk_tiles_a_pass(cells_x, cells_y, walk_tile_for(cells_x, cells_y)) >= 2 * static_cast<index_t>(threads);
+// can take the sorted P2G on CPUs (transfers.cpp). Its tiles are chosen by the grid and the
+// particles' order alone, so a small grid, or a CPU of many threads, leaves threads idle in each pass.
+inline bool walk_keeps_threads_busy(index_t cells_x, index_t cells_y, ParticleOrder order, int threads) {
+  return walk_tiles_a_pass(cells_x, cells_y, walk_tile_for(cells_x, cells_y, order)) >=
+         2 * static_cast<index_t>(threads);
 }
 
 // Each cell's tile of `extent` cells, tiles numbered row of tiles by row of tiles (ColouredTiles' grouping).
@@ -490,13 +498,15 @@ inline IndexView tile_of_each_cell(index_t cells_x, index_t cells_y, TileExtent 
 }
 
 // The particles grouped by tile for ColouredTiles, rebuilt by build() as they move: CellOrder over
-// the tiles, with the map from cell to tile kept while the grid's size stays the same.
+// the tiles, with the map from cell to tile kept while the grid's size stays the same. The tiles
+// are walk_tile_for's for particles in `order`.
 class TileOrder {
  public:
+  explicit TileOrder(ParticleOrder order) : particle_order_(order) {}
   const ColouredTiles& build(const IndexView& particle_cell, index_t num_particles, index_t cells_x,
                              index_t cells_y) {
     if (tiles_.cells_x != cells_x || tiles_.cells_y != cells_y) {
-      tiles_.tile = walk_tile_for(cells_x, cells_y);
+      tiles_.tile = walk_tile_for(cells_x, cells_y, particle_order_);
       tile_of_cell_ = tile_of_each_cell(cells_x, cells_y, tiles_.tile);
     }
     order_.build(particle_cell, num_particles, tile_of_cell_, num_tiles(cells_x, cells_y, tiles_.tile));
@@ -506,6 +516,7 @@ class TileOrder {
   size_t bytes() const { return order_.bytes() + tile_of_cell_.span() * sizeof(index_t); }
 
  private:
+  ParticleOrder particle_order_;
   CellOrder order_;
   IndexView tile_of_cell_;
   ColouredTiles tiles_;

@@ -38,6 +38,11 @@ using ParticleIdView = Kokkos::View<particle_id_t*, Kokkos::LayoutLeft, DeviceTy
 // Several node fields side by side: (node, component), each component column contiguous.
 using NodeFieldsView = Kokkos::View<real_t**, Kokkos::LayoutLeft, DeviceType>;
 
+// Whether a run reorders the particle arrays by cell as it goes (numerics/reorder_interval > 0), or
+// leaves them in the order they drift into: the CPU walk's tiles are chosen for it
+// (kernels/transfer_kernels.hpp, walk_tile_for).
+enum class ParticleOrder { reordered_by_cell, never_reordered };
+
 // The first index of part k of `parts` consecutive, nearly equal parts of [0, n): a thread's share
 // of the particles where each thread walks its own range (the cell order's chunks, the selections').
 KOKKOS_INLINE_FUNCTION index_t range_part_begin(index_t n, index_t parts, index_t k) {

@@ -387,7 +387,7 @@ class ScatterAccumulation {
   static constexpr bool duplicated = std::is_same<Duplication, Kokkos::Experimental::ScatterDuplicated>::value;
   using Access = NodeScatterView<Duplication>;
 
-  ScatterAccumulation(GridFields& fields, const NodeFieldsView& cell_sums)
+  ScatterAccumulation(GridFields& fields, const NodeFieldsView& cell_sums, ParticleOrder /* any */)
       : state_(adopt_state(fields)), momentum_(momentum_columns(fields.state)), cells_(cell_sums) {}
   void prepare(const ParticleState&, const GridGeometry&) {}
   // Batched stencils on CPUs (for_each_particle_stencil).
@@ -453,8 +453,9 @@ class ColouredAccumulation {
   static constexpr bool by_tile = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
   using Traversal = std::conditional_t<by_tile, ColouredTiles, ColouredCells>;
 
-  ColouredAccumulation(GridFields& fields, const NodeFieldsView& cell_sums)
-      : state_{fields.state}, momentum_{momentum_columns(fields.state)}, cell_sums_{cell_sums} {}
+  ColouredAccumulation(GridFields& fields, const NodeFieldsView& cell_sums, ParticleOrder particle_order)
+      : state_{fields.state}, momentum_{momentum_columns(fields.state)}, cell_sums_{cell_sums},
+        order_{make_order<Order>(particle_order)} {}
   void prepare(const ParticleState& particles, const GridGeometry& grid) {
     traversal_ = group(order_, particles, grid);
   }
@@ -492,7 +493,18 @@ class ColouredAccumulation {
     }
   }
 
-  std::conditional_t<by_tile, TileOrder, CellOrder> order_;
+  using Order = std::conditional_t<by_tile, TileOrder, CellOrder>;
+  // (The cells' order on GPUs takes every cell alike, whatever the particles' order. A template, so
+  // that only the one in use is compiled.)
+  template <class O>
+  static O make_order(ParticleOrder particle_order) {
+    if constexpr (std::is_same<O, TileOrder>::value)
+      return O(particle_order);
+    else
+      return O();
+  }
+
+  Order order_;
   Traversal traversal_;
 };
 
@@ -508,7 +520,7 @@ class Transfers final : public TransferKernels {
         pressure_relaxation_(config.numerics.pressure_relaxation),
         gamma_(config.physics.gamma),
         cell_sums_("cell_sums", cell_averaged_strain_ ? geometry.num_cells() : 0, num_cell_sum_columns),
-        accumulation_(fields, cell_sums_),
+        accumulation_(fields, cell_sums_, particle_order_of(config.numerics)),
         fields_(fields),
         shape_(make_shape<Shape>(config, geometry)),
         in_doubt_count_("p2g_particles_in_doubt", 1),
@@ -662,6 +674,10 @@ std::unique_ptr<TransferKernels> make_for_shape(const CaseConfig& config, const 
 
 }  // namespace
 
+ParticleOrder particle_order_of(const NumericsConfig& numerics) {
+  return numerics.reorder_interval > 0 ? ParticleOrder::reordered_by_cell : ParticleOrder::never_reordered;
+}
+
 std::unique_ptr<TransferKernels> make_transfer_kernels(const CaseConfig& config, const GridGeometry& geometry,
                                                        GridFields& fields) {
   using Kokkos::Experimental::ScatterDuplicated;
@@ -678,7 +694,8 @@ std::unique_ptr<TransferKernels> make_transfer_kernels(const CaseConfig& config,
   // Kokkos' own rule: duplicated copies on CPUs (few threads, cheap copies), atomics on GPUs
   // (thousands of threads, copies unaffordable).
   if (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
-    if (walk_keeps_threads_busy(geometry.cells_x(), geometry.cells_y(), ExecutionSpace().concurrency()))
+    if (walk_keeps_threads_busy(geometry.cells_x(), geometry.cells_y(), particle_order_of(config.numerics),
+                                ExecutionSpace().concurrency()))
       return make_for_shape<ColouredAccumulation>(config, geometry, fields);
     return make_for_shape<ScatterAccumulation<ScatterDuplicated>>(config, geometry, fields);
   }

@@ -77,6 +77,9 @@ class TransferKernels {
   virtual size_t scratch_bytes() const = 0;
 };
 
+// The particles' order that numerics/reorder_interval keeps, for the CPU walk's tiles.
+ParticleOrder particle_order_of(const NumericsConfig& numerics);
+
 // The transfers the case asks for (numerics/shape_function and numerics/p2g), on `fields` of a
 // slab of `geometry`. A duplicated P2G gives `fields` a new state View (the first of its copies,
 // zeroed): make the transfers before anything keeps a handle of the state.

@@ -225,10 +225,20 @@ template <class D>
 constexpr bool is_coloured = std::is_same<D, Coloured>::value || std::is_same<D, ColouredTeams>::value;
 
 // The particles `d` on `g` grouped for the coloured traversal of mode D: by tile or by cell.
+// The grouping of mode D made empty: by tile, those for particles reordered by cell (so that the
+// test grids below walk strips where they pay, as the cylinder's case does).
+template <class Order>
+Order empty_order() {
+  if constexpr (std::is_same<Order, TileOrder>::value)
+    return Order(ParticleOrder::reordered_by_cell);
+  else
+    return Order();
+}
 template <class D>
 struct ColouredTraversal {
   static constexpr bool teams = std::is_same<D, ColouredTeams>::value;
-  std::conditional_t<teams, CellOrder, TileOrder> order;
+  using Order = std::conditional_t<teams, CellOrder, TileOrder>;
+  Order order = empty_order<Order>();
   std::conditional_t<teams, ColouredCells, ColouredTiles> cells;
   static ColouredTraversal of(const GridGeometry& g, const DeviceParticles& d) {
     ColouredTraversal t;
@@ -657,12 +667,12 @@ std::string cells_named(index_t cells_x, index_t cells_y) {
   return std::to_string(cells_x) + " x " + std::to_string(cells_y) + " cells";
 }
 
-// The walk's tiles: strips of whole rows, the tallest that gives as many tiles a colour's pass as
-// the rectangles (or enough_walk_tiles_a_pass); else the rectangles: the largest that leave at
-// least min_walk_tiles tiles, else the smallest.
+// The walk's tiles for particles reordered by cell: strips of whole rows, the tallest that gives as
+// many tiles a colour's pass as the rectangles (or enough_walk_tiles_a_pass); else the rectangles:
+// the largest that leave at least min_walk_tiles tiles, else the smallest.
 TEST(TileOrder, TakesStripsWhereTheyGiveAsManyTilesAPassElseTheLargestRectangle) {
   const auto expect_tile = [](index_t cells_x, index_t cells_y, index_t x, index_t y) {
-    const TileExtent tile = walk_tile_for(cells_x, cells_y);
+    const TileExtent tile = walk_tile_for(cells_x, cells_y, ParticleOrder::reordered_by_cell);
     EXPECT_EQ(tile.x, x) << cells_x << " x " << cells_y << " cells";
     EXPECT_EQ(tile.y, y) << cells_x << " x " << cells_y << " cells";
   };
@@ -683,7 +693,7 @@ TEST(TileOrder, TakesStripsWhereTheyGiveAsManyTilesAPassElseTheLargestRectangle)
       }
       const index_t wanted =
           std::min(walk_tiles_a_pass(cells_x, cells_y, rectangle), enough_walk_tiles_a_pass);
-      const TileExtent tile = walk_tile_for(cells_x, cells_y);
+      const TileExtent tile = walk_tile_for(cells_x, cells_y, ParticleOrder::reordered_by_cell);
       const bool strip = tile.x != rectangle.x || tile.y != rectangle.y;
       for (const index_t taller : walk_strip_heights) {  // (all of them when the rectangles stay)
         if (strip && tile.y == taller) break;
@@ -696,16 +706,41 @@ TEST(TileOrder, TakesStripsWhereTheyGiveAsManyTilesAPassElseTheLargestRectangle)
     }
 }
 
+// Particles never reordered drift out of cell order: the walk keeps the rectangles for them, on
+// every grid.
+TEST(TileOrder, TakesTheRectanglesForParticlesNeverReordered) {
+  const TileExtent cylinder = walk_tile_for(448, 224, ParticleOrder::never_reordered);
+  EXPECT_EQ(cylinder.x, 128);
+  EXPECT_EQ(cylinder.y, 16);
+  for (index_t cells_x : {10, 100, 300, 1000, 10000})
+    for (index_t cells_y : {1, 3, 40, 200, 900, 5000}) {
+      SCOPED_TRACE(cells_named(cells_x, cells_y));
+      const TileExtent tile = walk_tile_for(cells_x, cells_y, ParticleOrder::never_reordered);
+      const TileExtent rectangle = walk_rectangle_for(cells_x, cells_y);
+      EXPECT_EQ(tile.x, rectangle.x);
+      EXPECT_EQ(tile.y, rectangle.y);
+    }
+}
+
 // numerics/p2g = automatic takes the sorted walk on CPUs where each colour's pass has at least two
-// tiles a thread: at 448 x 224 cells (28 strips of 8 rows, 14 a pass) up to 7 threads; a 100 x 1
-// grid (one strip) none.
+// tiles a thread: at 448 x 224 cells (28 strips of 8 rows, or 4 x 14 rectangles of 128 x 16: 14 a
+// pass either way) up to 7 threads; a 100 x 1 grid (one strip, or one rectangle) none. On a large
+// grid the rectangles give more tiles a pass than the strips: at 10000 x 5000 cells 40 x 157 against
+// 313 strips of 8 rows.
 TEST(TileOrder, TheWalkKeepsThreadsBusyWithTwoTilesAThreadInEachColour) {
-  EXPECT_TRUE(walk_keeps_threads_busy(448, 224, 1));
-  EXPECT_TRUE(walk_keeps_threads_busy(448, 224, 7));
-  EXPECT_FALSE(walk_keeps_threads_busy(448, 224, 8));
-  EXPECT_FALSE(walk_keeps_threads_busy(100, 1, 1));
-  EXPECT_TRUE(walk_keeps_threads_busy(1024, 512, 32));  // 128 strips of 4 rows, 64 a pass
-  EXPECT_FALSE(walk_keeps_threads_busy(1024, 512, 33));
+  for (const ParticleOrder order : {ParticleOrder::reordered_by_cell, ParticleOrder::never_reordered}) {
+    SCOPED_TRACE(order == ParticleOrder::reordered_by_cell ? "reordered by cell" : "never reordered");
+    EXPECT_TRUE(walk_keeps_threads_busy(448, 224, order, 1));
+    EXPECT_TRUE(walk_keeps_threads_busy(448, 224, order, 7));
+    EXPECT_FALSE(walk_keeps_threads_busy(448, 224, order, 8));
+    EXPECT_FALSE(walk_keeps_threads_busy(100, 1, order, 1));
+    EXPECT_TRUE(walk_keeps_threads_busy(1024, 512, order, 32));  // 128 strips of 4 rows, or 4 x 16 of 128 x 16
+    EXPECT_FALSE(walk_keeps_threads_busy(1024, 512, order, 33));
+  }
+  EXPECT_TRUE(walk_keeps_threads_busy(10000, 5000, ParticleOrder::reordered_by_cell, 156));
+  EXPECT_FALSE(walk_keeps_threads_busy(10000, 5000, ParticleOrder::reordered_by_cell, 157));
+  EXPECT_TRUE(walk_keeps_threads_busy(10000, 5000, ParticleOrder::never_reordered, 3140));
+  EXPECT_FALSE(walk_keeps_threads_busy(10000, 5000, ParticleOrder::never_reordered, 3141));
 }
 
 // Grouped by tile (the coloured traversal's on CPUs): each tile's particles, those of its cells,
@@ -719,7 +754,7 @@ TEST(TileOrder, GroupsParticlesByTileInIndexOrder) {
   const DeviceParticles d = to_device(g, random_particles(g, 5000, 9));
   const index_t tiles_x = tiles_along_x(g.cells_x(), tile), tiles = num_tiles(g.cells_x(), g.cells_y(), tile);
   ASSERT_EQ(tiles, 9);
-  TileOrder order;
+  TileOrder order(ParticleOrder::reordered_by_cell);  // (rectangles here either way)
   const ColouredTiles grouped = order.build(d.where.cell, d.count, g.cells_x(), g.cells_y());
   ASSERT_EQ(grouped.tile.x, tile.x);
   ASSERT_EQ(grouped.tile.y, tile.y);
@@ -808,11 +843,11 @@ void expect_coloured_runs_match_the_reference(const GridGeometry& grid) {
 }
 TEST(ColouredTiles, TheTestGridsWalkStripsAndRectangles) {
   const GridGeometry strips = TilesOfMovedParticles::three_rows_of_tiles();
-  const TileExtent strip = walk_tile_for(strips.cells_x(), strips.cells_y());
+  const TileExtent strip = walk_tile_for(strips.cells_x(), strips.cells_y(), ParticleOrder::reordered_by_cell);
   EXPECT_EQ(strip.x, strips.cells_x());
   EXPECT_EQ(strip.y, 4);
   const GridGeometry rectangles = TilesOfMovedParticles::wide_and_short();
-  const TileExtent rectangle = walk_tile_for(rectangles.cells_x(), rectangles.cells_y());
+  const TileExtent rectangle = walk_tile_for(rectangles.cells_x(), rectangles.cells_y(), ParticleOrder::reordered_by_cell);
   EXPECT_EQ(rectangle.x, 64);
   EXPECT_EQ(rectangle.y, 8);
 }

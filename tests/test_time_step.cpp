@@ -97,12 +97,15 @@ TEST(TimeStep, AutomaticP2GTakesTheSortedWalkWhereItKeepsTheThreadsBusy) {
   CaseConfig wide = sod;
   wide.domain.cells_x = 448;
   wide.domain.cells_y = 224;
-  for (const CaseConfig& config : {sod, wide}) {
+  CaseConfig wide_reordered = wide;
+  wide_reordered.numerics.reorder_interval = 20;
+  for (const CaseConfig& config : {sod, wide, wide_reordered}) {
     ASSERT_EQ(config.numerics.p2g, P2GStrategy::automatic);
     const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
     GridFields fields(slab.geometry);
     const auto transfers = make_transfer_kernels(config, slab.geometry, fields);
     const bool busy = walk_keeps_threads_busy(slab.geometry.cells_x(), slab.geometry.cells_y(),
+                                              particle_order_of(config.numerics),
                                               ExecutionSpace().concurrency());
     const P2GStrategy expected = !std::is_same<MemorySpace, Kokkos::HostSpace>::value ? P2GStrategy::atomic
                                  : busy                                                ? P2GStrategy::sorted
@@ -110,6 +113,18 @@ TEST(TimeStep, AutomaticP2GTakesTheSortedWalkWhereItKeepsTheThreadsBusy) {
     EXPECT_EQ(transfers->strategy(), expected) << config.domain.cells_x << " x " << config.domain.cells_y;
     if (std::is_same<MemorySpace, Kokkos::HostSpace>::value && ExecutionSpace().concurrency() <= 7)
       EXPECT_EQ(transfers->strategy(), config.domain.cells_y > 1 ? P2GStrategy::sorted : P2GStrategy::duplicated);
+  }
+}
+
+// The CPU walk's tiles follow numerics/reorder_interval: strips where they pay for particles
+// reordered by cell, rectangles for particles never reordered (kernels/transfer_kernels.hpp).
+TEST(TimeStep, TheReorderIntervalNamesTheParticlesOrderForTheWalk) {
+  NumericsConfig numerics;
+  numerics.reorder_interval = 0;
+  EXPECT_EQ(particle_order_of(numerics), ParticleOrder::never_reordered);
+  for (const int interval : {1, 20}) {
+    numerics.reorder_interval = interval;
+    EXPECT_EQ(particle_order_of(numerics), ParticleOrder::reordered_by_cell) << "every " << interval << " steps";
   }
 }
 
