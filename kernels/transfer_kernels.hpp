@@ -390,9 +390,8 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 constexpr TileExtent team_tile{64, 4};
 // A thread's tile on CPUs (ColouredTiles), as large as the grid allows (walk_tile_for), chosen by
 // the grid and the case's reordering alone, so that the sums' order does not depend on the
-// threads. Each colour's pass
-// fetches the nodes its tiles reach, and the other passes fetch again those of a tile's ring; a
-// large tile's rows of nodes and of particles are long streams.
+// threads. Each colour's pass fetches the nodes its tiles reach, and the other passes fetch again
+// those of a tile's ring; a large tile's rows of nodes and of particles are long streams.
 //  - Rectangles (walk_rectangle_for): the largest of walk_tiles_largest_first that gives at least
 //    min_walk_tiles tiles, so that the threads have enough to share. A sorted P2G on one thread,
 //    the cylinder at 448 x 224 reordered every step, took 40-42 ms a step with tiles of 64 x 4
@@ -400,17 +399,18 @@ constexpr TileExtent team_tile{64, 4};
 //    Benchmarks).
 //  - Where the run reorders its particles by cell, strips of whole rows of cells,
 //    walk_strip_heights rows tall, where they give as many tiles a pass as the rectangles (or
-//    enough_walk_tiles_a_pass): a strip is one stretch of the cell
-//    order, so that once reordered its particles are one run (its batches all consecutive, none
-//    cut at a row's end) and its window whole rows of nodes; with no tile beside it, two colour
-//    passes over the grid instead of four. On the cylinder at 448 x 224 (28 strips of 8 rows
+//    enough_walk_tiles_a_pass): a strip is one stretch of the cell order, so that once reordered
+//    its particles are one run (its batches all consecutive, none cut at a row's end) and its
+//    window whole rows of nodes; with no tile beside it, two colour passes over the grid instead
+//    of four. On the cylinder at 448 x 224 (28 strips of 8 rows
 //    against 56 tiles of 128 x 16; kernel timer, least over the steps, reordered every 20 steps):
 //    on two threads P2G 13.4-14.4 -> 12.1-13.0 ms a step, the fused G2P + remap P2G 8.1-9.0 ->
 //    7.1-7.8, G2PD 9.8-10.5 -> 9.2-10.2; on one 26.4-26.5 -> 24.9-25.3, 15.4-15.6 -> 14.3-14.4 and
 //    19.5 -> 19.3. Strips of 16 rows (7 a pass) left two threads unevenly loaded: P2G 15.6 ms.
 //    Particles never reordered drift out of cell order, and a strip's particles then reach all
-//    over its window, twice a rectangle's: in random order P2G took a tenth longer in strips than
-//    in rectangles (the benchmark's never-reordered rows), so such a run keeps the rectangles.
+//    over its window, twice a rectangle's nodes; such a run keeps the rectangles: the cylinder
+//    never reordered, 0.4 time units on two threads, took 29.0-31.3 ms a step for P2G in strips
+//    and 24.9-25.9 in rectangles, 1.01-1.09e7 and 1.22-1.27e7 particle-steps/s for the run.
 constexpr TileExtent walk_tiles_largest_first[] = {{128, 16}, {64, 8}, {64, 4}};
 constexpr index_t min_walk_tiles = 32;
 constexpr TileExtent smallest_walk_tile = walk_tiles_largest_first[std::size(walk_tiles_largest_first) - 1];
@@ -458,8 +458,8 @@ inline index_t walk_tiles_a_pass(index_t cells_x, index_t cells_y, TileExtent ti
   return TileColour(cells_x, cells_y, 0, tile).tiles();
 }
 
-// The walk's rectangles, and its tile, for a grid of cells_x x cells_y cells and particles in
-// `order` (above).
+// The walk's rectangles for a grid of cells_x x cells_y cells, and its tile there for particles
+// in `order` (above).
 inline TileExtent walk_rectangle_for(index_t cells_x, index_t cells_y) {
   for (const TileExtent tile : walk_tiles_largest_first)
     if (num_tiles(cells_x, cells_y, tile) >= min_walk_tiles) return tile;

@@ -387,7 +387,7 @@ class ScatterAccumulation {
   static constexpr bool duplicated = std::is_same<Duplication, Kokkos::Experimental::ScatterDuplicated>::value;
   using Access = NodeScatterView<Duplication>;
 
-  ScatterAccumulation(GridFields& fields, const NodeFieldsView& cell_sums, ParticleOrder /* any */)
+  ScatterAccumulation(GridFields& fields, const NodeFieldsView& cell_sums, ParticleOrder /* (walks no tiles) */)
       : state_(adopt_state(fields)), momentum_(momentum_columns(fields.state)), cells_(cell_sums) {}
   void prepare(const ParticleState&, const GridGeometry&) {}
   // Batched stencils on CPUs (for_each_particle_stencil).
