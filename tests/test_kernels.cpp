@@ -224,9 +224,8 @@ struct ColouredTeams {};
 template <class D>
 constexpr bool is_coloured = std::is_same<D, Coloured>::value || std::is_same<D, ColouredTeams>::value;
 
-// The particles `d` on `g` grouped for the coloured traversal of mode D: by tile or by cell.
-// The grouping of mode D made empty: by tile, those for particles reordered by cell (so that the
-// test grids below walk strips where they pay, as the cylinder's case does).
+// An empty grouping, by cell or by tile; by tile, with the tiles for particles reordered by cell
+// (so that the test grids below walk strips where they pay, as the cylinder's case does).
 template <class Order>
 Order empty_order() {
   if constexpr (std::is_same<Order, TileOrder>::value)
@@ -234,6 +233,8 @@ Order empty_order() {
   else
     return Order();
 }
+
+// The particles `d` on `g` grouped for the coloured traversal of mode D: by tile or by cell.
 template <class D>
 struct ColouredTraversal {
   static constexpr bool teams = std::is_same<D, ColouredTeams>::value;
