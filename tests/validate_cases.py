@@ -1,6 +1,8 @@
 """ctest: every shipped case (cases/*.json), and the effective case `mpmflow case` prints for
 each, validates against cases/mpmflow_case.schema.json (python3-jsonschema); a case the parser
-rejects is rejected by the schema too for a few typical mistakes. Prints FAIL lines; exits 1 on any.
+rejects is rejected by the schema too for a few typical mistakes; and every default the schema
+states is the one the parser takes (the effective case of a case that sets only what it must).
+Prints FAIL lines; exits 1 on any.
 
   validate_cases.py MPMFLOW_BINARY SOURCE_DIR
 """
@@ -9,6 +11,7 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 
 import jsonschema
 
@@ -48,4 +51,35 @@ for what, edit in [("an unknown key", lambda d: d["time"].update(cfll=1)),
     document = json.loads(json.dumps(sod))
     edit(document)
     check(not validator.is_valid(document), f"the schema rejects {what}")
+
+# The schema's defaults against the parser's: each key with a default, where the minimal case
+# leaves it out, has that value in the minimal case's effective case.
+minimal = {"name": "t", "domain": {"x": [0, 2], "y": [0, 1], "cells_x": 20, "cells_y": 10},
+           "time": {"end": 0.5}, "particles": {"per_cell": [2, 2]},
+           "initial_state": {"background": {"density": 1.4, "pressure": 1, "velocity": [3, 0]}}}
+with tempfile.TemporaryDirectory() as folder:
+    minimal_path = os.path.join(folder, "minimal.json")
+    with open(minimal_path, "w") as f:
+        json.dump(minimal, f)
+    effective = subprocess.run([binary, "case", minimal_path], capture_output=True, text=True)
+check(effective.returncode == 0, "mpmflow case of a minimal case exits 0")
+defaults_checked = 0
+
+
+def check_defaults(node, value, path):
+    global defaults_checked
+    if "$ref" in node:
+        node = schema["$defs"][node["$ref"].rsplit("/", 1)[-1]]
+    if "default" in node and not isinstance(value, (dict, list)):
+        defaults_checked += 1
+        check(value == node["default"], f"{path}: the schema's default {node['default']!r}, the parser's {value!r}")
+    if isinstance(value, dict):
+        for key, child in node.get("properties", {}).items():
+            if key in value:
+                check_defaults(child, value[key], path + "/" + key)
+
+
+if effective.returncode == 0:
+    check_defaults(schema, json.loads(effective.stdout), "")
+check(defaults_checked >= 20, f"{defaults_checked} schema defaults checked against the parser's")
 sys.exit(1 if failures else 0)
