@@ -52,8 +52,8 @@ for what, edit in [("an unknown key", lambda d: d["time"].update(cfll=1)),
     edit(document)
     check(not validator.is_valid(document), f"the schema rejects {what}")
 
-# The schema's defaults against the parser's: each key with a default, where the minimal case
-# leaves it out, has that value in the minimal case's effective case.
+# The schema's defaults against the parser's: each key with a default (the minimal case sets none
+# of them) has that value in the minimal case's effective case.
 minimal = {"name": "t", "domain": {"x": [0, 2], "y": [0, 1], "cells_x": 20, "cells_y": 10},
            "time": {"end": 0.5}, "particles": {"per_cell": [2, 2]},
            "initial_state": {"background": {"density": 1.4, "pressure": 1, "velocity": [3, 0]}}}
