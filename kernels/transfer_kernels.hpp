@@ -522,6 +522,17 @@ class TileOrder {
   ColouredTiles tiles_;
 };
 
+// An empty grouping of the particles, by tile (TileOrder: its tiles for particles in `order`) or
+// by cell (CellOrder: every cell alike, whatever the particles' order). (A template, so that only
+// the one in use is compiled.)
+template <class Grouping>
+Grouping make_particle_grouping(ParticleOrder order) {
+  if constexpr (std::is_same<Grouping, TileOrder>::value)
+    return Grouping(order);
+  else
+    return Grouping();
+}
+
 // The next batch of a tile's particles from slot s of its list `order` (slots before `end`), as the
 // CPU walk takes them: up to stencil_batch_size consecutive particles, taken as such: the next 32
 // if they are consecutive (the list strictly increases, so they are when the last is the first +

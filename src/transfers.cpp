@@ -455,7 +455,7 @@ class ColouredAccumulation {
 
   ColouredAccumulation(GridFields& fields, const NodeFieldsView& cell_sums, ParticleOrder particle_order)
       : state_{fields.state}, momentum_{momentum_columns(fields.state)}, cell_sums_{cell_sums},
-        order_{make_order<Order>(particle_order)} {}
+        order_{make_particle_grouping<Order>(particle_order)} {}
   void prepare(const ParticleState& particles, const GridGeometry& grid) {
     traversal_ = group(order_, particles, grid);
   }
@@ -494,16 +494,6 @@ class ColouredAccumulation {
   }
 
   using Order = std::conditional_t<by_tile, TileOrder, CellOrder>;
-  // (The cells' order on GPUs takes every cell alike, whatever the particles' order. A template, so
-  // that only the one in use is compiled.)
-  template <class O>
-  static O make_order(ParticleOrder particle_order) {
-    if constexpr (std::is_same<O, TileOrder>::value)
-      return O(particle_order);
-    else
-      return O();
-  }
-
   Order order_;
   Traversal traversal_;
 };

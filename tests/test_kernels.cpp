@@ -224,22 +224,14 @@ struct ColouredTeams {};
 template <class D>
 constexpr bool is_coloured = std::is_same<D, Coloured>::value || std::is_same<D, ColouredTeams>::value;
 
-// An empty grouping, by cell or by tile; by tile, with the tiles for particles reordered by cell
-// (so that the test grids below walk strips where they pay, as the cylinder's case does).
-template <class Order>
-Order empty_order() {
-  if constexpr (std::is_same<Order, TileOrder>::value)
-    return Order(ParticleOrder::reordered_by_cell);
-  else
-    return Order();
-}
-
 // The particles `d` on `g` grouped for the coloured traversal of mode D: by tile or by cell.
 template <class D>
 struct ColouredTraversal {
   static constexpr bool teams = std::is_same<D, ColouredTeams>::value;
   using Order = std::conditional_t<teams, CellOrder, TileOrder>;
-  Order order = empty_order<Order>();
+  // By tile, the tiles for particles reordered by cell: the test grids below walk strips where
+  // they pay, as the cylinder's case does.
+  Order order = make_particle_grouping<Order>(ParticleOrder::reordered_by_cell);
   std::conditional_t<teams, ColouredCells, ColouredTiles> cells;
   static ColouredTraversal of(const GridGeometry& g, const DeviceParticles& d) {
     ColouredTraversal t;
