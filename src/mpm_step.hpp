@@ -25,11 +25,14 @@ struct StepState {
   ObstacleForces& obstacle_forces;  // of the step, on this slab's nodes
 };
 
-// What a step needs to know besides the state: fixed for a run.
+// What a step needs to know besides the state: fixed for a run. The Solver sets every field from
+// the case; the defaults of those that mirror a case key are that key's (NumericsConfig), so that
+// a StepSettings made anywhere else cannot disagree with the case file's reference.
 struct StepSettings {
   // G2P of velocity and acceleration fused with the momentum remap P2G (numerics/fused_kernels).
-  bool fused_kernels = true;
-  int reorder_interval = 0;  // step 12 on every step divisible by it; 0: never
+  bool fused_kernels = NumericsConfig{}.fused_kernels;
+  // Step 12 on every step divisible by it; 0: never (numerics/reorder_interval).
+  int reorder_interval = NumericsConfig{}.reorder_interval;
   // Nodes with no more mass than this count as empty (no velocity, no acceleration), so that
   // nearly empty nodes at the edge of the particle cloud cannot produce huge accelerations.
   real_t node_mass_threshold = 0;
