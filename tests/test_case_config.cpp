@@ -6,6 +6,7 @@
 #include <fstream>
 #include <iterator>
 #include <set>
+#include <stdexcept>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -15,13 +16,15 @@
 namespace mpmflow {
 namespace {
 
-const char* kMinimalCase = R"({
-  "name": "t",
-  "domain": { "x": [0, 2], "y": [0, 1], "cells_x": 20, "cells_y": 10 },
-  "time": { "end": 0.5 },
-  "particles": { "per_cell": [2, 2] },
-  "initial_state": { "background": { "density": 1.4, "pressure": 1, "velocity": [3, 0] } }
-})";
+// The smallest valid case: only the required keys. One file, which tests/validate_cases.py reads
+// too (the schema's defaults against the parser's).
+std::string read_minimal_case() {
+  const std::string path = std::string(MPMFLOW_SOURCE_DIR) + "/tests/data/minimal_case.json";
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot read " + path);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+const std::string kMinimalCase = read_minimal_case();
 
 // The message parse_case throws for `text`, or "" when it parses.
 std::string error_of(const std::string& text) {

@@ -11,7 +11,6 @@ import json
 import os
 import subprocess
 import sys
-import tempfile
 
 import jsonschema
 
@@ -52,16 +51,10 @@ for what, edit in [("an unknown key", lambda d: d["time"].update(cfll=1)),
     edit(document)
     check(not validator.is_valid(document), f"the schema rejects {what}")
 
-# The schema's defaults against the parser's: each key with a default (the minimal case sets none
-# of them) has that value in the minimal case's effective case.
-minimal = {"name": "t", "domain": {"x": [0, 2], "y": [0, 1], "cells_x": 20, "cells_y": 10},
-           "time": {"end": 0.5}, "particles": {"per_cell": [2, 2]},
-           "initial_state": {"background": {"density": 1.4, "pressure": 1, "velocity": [3, 0]}}}
-with tempfile.TemporaryDirectory() as folder:
-    minimal_path = os.path.join(folder, "minimal.json")
-    with open(minimal_path, "w") as f:
-        json.dump(minimal, f)
-    effective = subprocess.run([binary, "case", minimal_path], capture_output=True, text=True)
+# The schema's defaults against the parser's: each key with a default (the minimal case, the test
+# programs' too, sets none of them) has that value in the minimal case's effective case.
+minimal_path = os.path.join(source_dir, "tests", "data", "minimal_case.json")
+effective = subprocess.run([binary, "case", minimal_path], capture_output=True, text=True)
 check(effective.returncode == 0, "mpmflow case of a minimal case exits 0")
 defaults_checked = 0
 
