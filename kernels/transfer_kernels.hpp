@@ -759,13 +759,18 @@ void walk_window_pass(const char* label, const Shape& shape, const ParticleLocat
   using Policy = Kokkos::TeamPolicy<ExecutionSpace, Kokkos::Schedule<Kokkos::Dynamic>>;
   using Team = typename Policy::member_type;
   Policy policy(tiles.tiles(), 1);
-  policy.set_scratch_size(0, Kokkos::PerTeam(window_bytes));
+  // A node's W columns are one vector of W * 8 bytes (a cache line for W = 8): the window starts on
+  // such a boundary, so that no node's vector straddles two lines. (get_shmem aligns to 8 bytes
+  // only; the OpenMP scratch started 48 bytes past a line here, every node access a split one.)
+  constexpr size_t window_alignment = W * sizeof(real_t);
+  policy.set_scratch_size(0, Kokkos::PerTeam(window_bytes + window_alignment));
   Kokkos::parallel_for(label, policy, KOKKOS_LAMBDA(const Team& team) {
     const index_t t = tiles.tile_number(team.league_rank());
     if (offset(t) == offset(t + 1)) return;
     const TileReach reach = windows.reach((t % tiles_x) * tile.x, (t / tiles_x) * tile.y);
-    const NodeMajorWindowOf<W> window{static_cast<real_t*>(team.team_scratch(0).get_shmem(window_bytes)),
-                                      windows.base(reach), first_written - read};
+    const NodeMajorWindowOf<W> window{
+        static_cast<real_t*>(team.team_scratch(0).get_shmem_aligned(window_bytes, window_alignment)),
+        windows.base(reach), first_written - read};
     for (index_t j = reach.j_begin; j < reach.j_end; ++j) {
       for (int c = 0; c < read; ++c)
         for (index_t i = reach.i_begin; i < reach.i_end; ++i)
