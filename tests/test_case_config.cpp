@@ -6,25 +6,19 @@
 #include <fstream>
 #include <iterator>
 #include <set>
-#include <stdexcept>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "case_config.hpp"
+#include "test_files.hpp"
 
 namespace mpmflow {
 namespace {
 
 // The smallest valid case: only the required keys. One file, which tests/validate_cases.py reads
 // too (the schema's defaults against the parser's).
-std::string read_minimal_case() {
-  const std::string path = std::string(MPMFLOW_SOURCE_DIR) + "/tests/data/minimal_case.json";
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error("cannot read " + path);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-const std::string kMinimalCase = read_minimal_case();
+const std::string kMinimalCase = read_text(std::string(MPMFLOW_SOURCE_DIR) + "/tests/data/minimal_case.json");
 
 // The message parse_case throws for `text`, or "" when it parses.
 std::string error_of(const std::string& text) {

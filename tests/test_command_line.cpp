@@ -14,10 +14,12 @@
 #ifdef MPMFLOW_HAVE_HDF5
 #include "hdf5_io.hpp"
 #endif
+#include "test_files.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+using mpmflow::read_text;
 
 struct CommandResult {
   int exit_code = -1;
@@ -38,13 +40,6 @@ CommandResult run_command(const std::string& command) {
 
 CommandResult run_mpmflow(const std::string& arguments, const fs::path& directory) {
   return run_command("cd '" + directory.string() + "' && '" + std::string(MPMFLOW_BINARY) + "' " + arguments + " 2>&1");
-}
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
 }
 
 // A scratch directory holding a copy of cases/sod.json, edited by the test.
