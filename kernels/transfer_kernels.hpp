@@ -1039,8 +1039,9 @@ KOKKOS_FORCEINLINE_FUNCTION void accumulate(const StencilType& s, const NodeMajo
   for (int b = 0; b < K; ++b) {
     real_t row[N];  // F wy[b]
     for (int c = 0; c < N; ++c) row[c] = value[c] * s.wy[b];
+    real_t* const row_nodes = window.node(s, 0, b) + column;
     for (int a = 0; a < K; ++a) {
-      real_t* node = window.node(s, a, b) + column;
+      real_t* node = row_nodes + a * W;
       const real_t wx = s.wx[a];
       MPMFLOW_VECTORISE
       for (int c = 0; c < N; ++c) node[c] += wx * row[c];
@@ -1192,8 +1193,9 @@ struct P2GAndP2GDBody {
         along[c] = wy * node_value[c] + gy * along_y[c];
         across_b[c] = wy * across[c];
       }
+      real_t* const row_nodes = scatter.node(s, 0, b);
       for (int a = 0; a < K; ++a) {
-        real_t* node = scatter.node(s, a, b);
+        real_t* node = row_nodes + a * W;
         const real_t wx = s.wx[a], gx = s.gx[a];
         MPMFLOW_VECTORISE
         for (int c = 0; c < W; ++c) node[c] += wx * along[c] + gx * across_b[c];
@@ -1409,8 +1411,9 @@ struct G2PAndG2PDBody {
     for (int b = 0; b < K; ++b) {
       real_t row_w[W], row_g[W];
       for (int c = 0; c < W; ++c) row_w[c] = row_g[c] = 0;
+      const real_t* const row_nodes = node_functor.window.node(s, 0, b);
       for (int a = 0; a < K; ++a) {
-        const real_t* node = node_functor.window.node(s, a, b);
+        const real_t* node = row_nodes + a * W;
         const real_t wx = s.wx[a], gx = s.gx[a];
         MPMFLOW_VECTORISE
         for (int c = 0; c < W; ++c) {
