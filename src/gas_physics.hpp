@@ -80,11 +80,12 @@ KOKKOS_INLINE_FUNCTION bool is_valid_gas_state(real_t density, real_t pressure, 
 // A perfect gas's state (density, specific energy, velocity) that is_valid_gas_state accepts for
 // sure, tested without a square root: |v|^2 + c^2 finite implies |v| + c finite. (The converse
 // fails only for speeds beyond 1e154: such a state is in doubt, and is_valid_gas_state decides.)
+// All three tests are made (&, not &&): no branch, so that P2G's particles run as vector lanes.
 KOKKOS_INLINE_FUNCTION bool surely_valid_gas_state(real_t gamma, real_t density, real_t specific_energy, real_t vx,
                                                    real_t vy) {
   const real_t pressure = perfect_gas_pressure(gamma, density, specific_energy);
-  return density > 0 && pressure == pressure &&
-         vx * vx + vy * vy + perfect_gas_sound_speed_squared(gamma, specific_energy) < largest_real;
+  return (density > 0) & (pressure == pressure) &
+         (vx * vx + vy * vy + perfect_gas_sound_speed_squared(gamma, specific_energy) < largest_real);
 }
 
 // ---- Sub-cell consistency (numerics/pressure_relaxation and numerics/volume_correction) ---------

@@ -25,17 +25,24 @@ struct MassMomentumAndPressureVolume {
   RealView mass, velocity_x, velocity_y, specific_energy, density;
   real_t gamma;
   DoubtCounter in_doubt;
-  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, real_t (&value)[5]) const {
-    const real_t vx = velocity_x(p), vy = velocity_y(p), e = specific_energy(p);
-    value[0] = mass(p);
-    value[1] = mass(p) * vx;
-    value[2] = mass(p) * vy;
-    value[3] = perfect_gas_pressure_volume(gamma, mass(p), e);
-    value[4] = mass(p) / density(p);
-    if (!surely_valid_gas_state(gamma, density(p), e, vx, vy)) {
-      auto count = in_doubt.access();
-      count(0) += 1;
-    }
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, real_t (&value)[5]) const { add_count(values(p, value)); }
+  // The values into `value` (an array, or a batch's lanes: LaneOutputs), and 1 for a particle in
+  // doubt (a select, not a branch: so that a batch's particles run as vector lanes), which
+  // add_count adds, once for a whole batch.
+  template <class Values>
+  KOKKOS_FORCEINLINE_FUNCTION index_t values(index_t p, Values&& value) const {
+    const real_t m = mass(p), vx = velocity_x(p), vy = velocity_y(p), e = specific_energy(p), rho = density(p);
+    value[0] = m;
+    value[1] = m * vx;
+    value[2] = m * vy;
+    value[3] = perfect_gas_pressure_volume(gamma, m, e);
+    value[4] = m / rho;
+    return surely_valid_gas_state(gamma, rho, e, vx, vy) ? 0 : 1;
+  }
+  KOKKOS_FORCEINLINE_FUNCTION void add_count(index_t particles_in_doubt) const {
+    if (particles_in_doubt == 0) return;
+    auto count = in_doubt.access();
+    count(0) += particles_in_doubt;
   }
 };
 
@@ -71,7 +78,9 @@ struct InternalForce {
   static constexpr int num_components = 2;
   RealView specific_energy, viscosity, mass, density;
   real_t gamma;
-  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, real_t (&vector)[2][2]) const {
+  // Vectors: an array, or a batch's lanes (LaneVectorOutputs), written as vector[component][axis].
+  template <class Vectors>
+  KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t p, Vectors&& vector) const {
     const real_t stress_times_volume =
         perfect_gas_stress_volume(gamma, mass(p), density(p), specific_energy(p), viscosity(p));
     vector[0][0] = stress_times_volume;  // zeta: x force component pairs with d/dx
