@@ -11,6 +11,10 @@
 //   G2P  node functor:      void operator()(index_t node, real_t (&value)[N]) const
 //        sink:              void operator()(index_t p, const real_t (&value)[N]) const
 //   G2PD node functor as G2P; sink: void operator()(index_t p, const real_t (&gradient)[N][2]) const
+// Optionally, for a batch's particles as vector lanes on CPUs: a P2G functor's
+// index_t values(index_t p, Values value) and void add_count(index_t n) (WritesValuesInLanes), a
+// P2GD functor's call operator over any Vectors (LaneVectorOutputs), a sink's over any Values and
+// Gradients (TakesLanes).
 //
 // The shape-function policy (kernels/shape_functions.hpp) gives each particle's stencil of nodes,
 // weights and weight gradients, so the same kernels serve linear MPM and GIMP.
