@@ -29,6 +29,11 @@ def check(condition, message):
     failures += 0 if condition else 1
 
 
+def schema_errors(document):
+    """The schema's complaints about `document`, each as "path: message"."""
+    return [f"{'/'.join(map(str, e.path))}: {e.message}" for e in validator.iter_errors(document)]
+
+
 def effective_case(path):
     """The effective case `mpmflow case PATH` prints, or None (after a FAIL line) if it does not exit 0."""
     run = subprocess.run([binary, "case", path], capture_output=True, text=True)
@@ -41,11 +46,11 @@ check(len(cases) >= 4, f"{len(cases)} shipped cases")
 for path in cases:
     with open(path) as f:
         document = json.load(f)
-    errors = [f"{'/'.join(map(str, e.path))}: {e.message}" for e in validator.iter_errors(document)]
+    errors = schema_errors(document)
     check(not errors, f"{os.path.basename(path)} validates" + ("" if not errors else f": {errors}"))
     effective = effective_case(path)
     if effective is not None:
-        errors = [f"{'/'.join(map(str, e.path))}: {e.message}" for e in validator.iter_errors(effective)]
+        errors = schema_errors(effective)
         check(not errors, f"its effective case validates" + ("" if not errors else f": {errors}"))
 
 with open(os.path.join(source_dir, "cases", "sod.json")) as f:
