@@ -179,7 +179,10 @@ struct WindowColumns {
   static constexpr int num_components = N;
   NodeMajorWindowOf<W> window;
   KOKKOS_FORCEINLINE_FUNCTION void operator()(index_t node, real_t (&value)[N]) const {
-    const real_t* columns = window.node(node);
+    copy(window.node(node), value);
+  }
+  // A node's values from its place in the window.
+  KOKKOS_FORCEINLINE_FUNCTION static void copy(const real_t* columns, real_t (&value)[N]) {
     for (int c = 0; c < N; ++c) value[c] = columns[c];
   }
 };
@@ -193,8 +196,7 @@ KOKKOS_FORCEINLINE_FUNCTION void stencil_node_values(const NodeFunctor& node_fun
 template <int N, int W, class StencilType>
 KOKKOS_FORCEINLINE_FUNCTION void stencil_node_values(const WindowColumns<N, W>& node_functor, const StencilType& s,
                                                      int a, int b, real_t (&value)[N]) {
-  const real_t* columns = node_functor.window.node(s, a, b);
-  for (int c = 0; c < N; ++c) value[c] = columns[c];
+  WindowColumns<N, W>::copy(node_functor.window.node(s, a, b), value);
 }
 template <class NodeFunctor>
 struct IsWindowColumns : std::false_type {};
@@ -1117,20 +1119,33 @@ struct P2GDBody {
   }
 };
 
-// Where a P2G functor writes its values for a lane of a batch (value[c] = ...), the lanes' values of
-// each component side by side, and a P2GD functor its vectors (vector[c][axis] = ...): a functor
-// whose call operator is a template over what it writes takes these, and its calls for a batch's
-// lanes run as vector lanes (as TakesLanes for the sinks).
-template <int L>
-struct LaneOutputs {
-  real_t* first;  // the lane's component 0
-  KOKKOS_FORCEINLINE_FUNCTION real_t& operator[](int c) const { return first[c * L]; }
+// One lane of a batch's per-particle values, stored component by component (each component's L
+// lanes side by side), as value[c], and of its per-particle vectors as vector[c][axis]: written
+// (Element real_t) by a P2G functor (LaneOutputs) and a P2GD one (LaneVectorOutputs), read (const
+// real_t) by a G2P-and-G2PD sink (LaneValues, LaneGradients). A functor or sink whose call operator
+// is a template over what it takes gets these, and its calls for a batch's lanes then run as vector
+// lanes (GCC 12 keeps the loop scalar when each lane's values are an array of their own: "no
+// vectype" for their strided loads).
+template <int L, class Element>
+struct LaneComponents {
+  Element* first;  // the lane's component 0
+  KOKKOS_FORCEINLINE_FUNCTION Element& operator[](int c) const { return first[c * L]; }
+};
+template <int L, class Element>
+struct LaneVectors {
+  Element* first;  // the lane's component 0 along x
+  KOKKOS_FORCEINLINE_FUNCTION LaneComponents<L, Element> operator[](int c) const {
+    return LaneComponents<L, Element>{first + 2 * c * L};
+  }
 };
 template <int L>
-struct LaneVectorOutputs {
-  real_t* first;  // the lane's component 0 along x
-  KOKKOS_FORCEINLINE_FUNCTION LaneOutputs<L> operator[](int c) const { return LaneOutputs<L>{first + 2 * c * L}; }
-};
+using LaneOutputs = LaneComponents<L, real_t>;
+template <int L>
+using LaneVectorOutputs = LaneVectors<L, real_t>;
+template <int L>
+using LaneValues = LaneComponents<L, const real_t>;
+template <int L>
+using LaneGradients = LaneVectors<L, const real_t>;
 // A P2G functor that writes its values through a template (functor.values(p, value)) and returns
 // what it counts of the particle (a particle in doubt: 1), which functor.add_count(n) then adds for
 // a whole batch at once; a P2GD functor whose call operator takes LaneVectorOutputs.
@@ -1205,6 +1220,9 @@ struct P2GAndP2GDBody {
     index_t counted = 0;
     for (int l = 0; l < count; ++l) counted += lanes.counted[l];
     value_functor.add_count(counted);
+    // Each lane's values copied into arrays for node_vectors: reading them there through LaneValues
+    // and LaneVectors instead made P2G 8 % slower (ten paired runs), node_vectors' stores into the
+    // lanes (value, along_y, across) then perhaps aliasing what it reads.
     for (int l = 0; l < count; ++l) {
       real_t value[NV];
       real_t vector[ND][2];
@@ -1377,26 +1395,8 @@ struct G2PThenP2GBody {
   }
 };
 
-// One lane of a batch's interpolated values and gradients, stored component by component (each
-// component's L lanes side by side), read as value[c] and gradient[c][axis]: a G2P-and-G2PD sink
-// whose call operator is a template over what it reads takes these, and its calls for a batch's
-// lanes then run as vector lanes (GCC 12 keeps the loop scalar when each lane's values are an array
-// of their own: "no vectype" for their strided loads).
-template <int L>
-struct LaneValues {
-  const real_t* first;  // the lane's component 0
-  KOKKOS_FORCEINLINE_FUNCTION real_t operator[](int c) const { return first[c * L]; }
-};
-template <int L>
-struct LaneGradients {
-  const real_t* first;  // the lane's component 0 along x
-  struct Component {
-    const real_t* first;
-    KOKKOS_FORCEINLINE_FUNCTION real_t operator[](int axis) const { return first[axis * L]; }
-  };
-  KOKKOS_FORCEINLINE_FUNCTION Component operator[](int c) const { return Component{first + 2 * c * L}; }
-};
-// Whether a sink takes them (otherwise it gets each lane's values copied into arrays).
+// Whether a G2P-and-G2PD sink takes a batch's interpolated values and gradients as lanes
+// (LaneValues, LaneGradients); otherwise it gets each lane's values copied into arrays.
 template <class Sink, int L, class = void>
 struct TakesLanes : std::false_type {};
 template <class Sink, int L>
