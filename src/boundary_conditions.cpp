@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <type_traits>
+#include <vector>
 
 #include <Kokkos_ScatterView.hpp>
 
@@ -35,6 +36,17 @@ IndexRange2D within_domain(const GridSlab& slab, const IndexRange2D& line) {
 // Whether gas outside the side presses on it at the free-stream pressure: outflow and far field.
 bool pressure_side(BoundaryType type) { return type == BoundaryType::outflow || type == BoundaryType::far_field; }
 
+// The node lines a side's condition visits (some may be empty on this slab): the side's line and
+// the ghost lines beyond it, which GIMP stencils reach, for an inflow side or a slip wall; the
+// side's line within the domain for a pressure side (apply_side_pressure). The one list that the
+// conditions and the energy budget's nodes (GridBoundaryConditions::conditioned_nodes) share.
+std::vector<IndexRange2D> condition_lines(const GridSlab& slab, BoundaryType type, Side side) {
+  if (pressure_side(type)) return {within_domain(slab, slab.boundary_node_line(side, 0))};
+  std::vector<IndexRange2D> lines;
+  for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer) lines.push_back(slab.boundary_node_line(side, layer));
+  return lines;
+}
+
 // The free-stream pressure on the outflow and far-field sides, as the gas outside acts on the
 // nodes of the side (free functions rather than private members: CUDA forbids device lambdas in
 // private members).
@@ -65,7 +77,7 @@ void apply_side_pressure(const GridSlab& slab, const std::array<BoundaryType, nu
   for (int s = 0; s < num_sides; ++s) {
     if (!pressure_side(side_type[s])) continue;
     const Side side = static_cast<Side>(s);
-    IndexRange2D line = within_domain(slab, slab.boundary_node_line(side, 0));
+    IndexRange2D line = condition_lines(slab, side_type[s], side).front();
     // A corner node shared with an earlier pressure side (left and right come before bottom and
     // top) is that side's: each node is handled once.
     if (side == bottom_side || side == top_side) {
@@ -104,8 +116,8 @@ void apply_inflow_sides(const GridSlab& slab, const std::array<BoundaryType, num
   const real_t vx = free_stream.velocity_x, vy = free_stream.velocity_y;
   for (int s = 0; s < num_sides; ++s) {
     if (side_type[s] != BoundaryType::inflow) continue;
-    for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer)
-      for_nodes("inflow_nodes", geo, slab.boundary_node_line(static_cast<Side>(s), layer),
+    for (const IndexRange2D& line : condition_lines(slab, side_type[s], static_cast<Side>(s)))
+      for_nodes("inflow_nodes", geo, line,
                 KOKKOS_LAMBDA(const index_t node, index_t, index_t) {
                   const real_t m = state(node, GridFields::mass);
                   momentum(node, column_x) = m * vx;
@@ -124,8 +136,8 @@ void apply_slip_walls(const GridSlab& slab, const std::array<BoundaryType, num_s
   for (int s = 0; s < num_sides; ++s) {
     if (side_type[s] != BoundaryType::slip_wall) continue;
     const int normal_column = column_x + (s == left_side || s == right_side ? 0 : 1);
-    for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer)
-      for_nodes("slip_wall", geo, slab.boundary_node_line(static_cast<Side>(s), layer),
+    for (const IndexRange2D& line : condition_lines(slab, side_type[s], static_cast<Side>(s)))
+      for_nodes("slip_wall", geo, line,
                 KOKKOS_LAMBDA(const index_t node, index_t, index_t) { fields(node, normal_column) = 0; });
   }
 }
@@ -201,6 +213,31 @@ void GridBoundaryConditions::apply_to_momentum(const NodeFieldsView& momentum, i
   apply_inflow_sides(slab_, side_type_, free_stream_, momentum, column_x, state, /*with_force=*/false);
   apply_slip_walls(slab_, side_type_, momentum, column_x);
   remove_inward_component(obstacles_, momentum, column_x);
+}
+
+IndexView GridBoundaryConditions::conditioned_nodes(const IndexRange2D& within) const {
+  const GridGeometry& geo = slab_.geometry;
+  std::vector<index_t> nodes;
+  const auto add = [&](index_t i, index_t j) {
+    if (i >= within.begin_x && i < within.end_x && j >= within.begin_y && j < within.end_y)
+      nodes.push_back(geo.node_index(i, j));
+  };
+  for (int s = 0; s < num_sides; ++s)
+    for (const IndexRange2D& line : condition_lines(slab_, side_type_[s], static_cast<Side>(s)))
+      for (index_t j = line.begin_y; j < line.end_y; ++j)
+        for (index_t i = line.begin_x; i < line.end_x; ++i) add(i, j);
+  const auto obstacle_nodes = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), obstacles_.obstacle_nodes);
+  for (index_t k = 0; k < obstacles_.num_obstacle_nodes(); ++k) {
+    const index_t node = obstacle_nodes(k);
+    add(node % geo.nodes_x, node / geo.nodes_x);
+  }
+  std::sort(nodes.begin(), nodes.end());
+  nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
+  IndexView list("conditioned_nodes", nodes.size());
+  const auto host = Kokkos::create_mirror_view(list);
+  std::copy(nodes.begin(), nodes.end(), host.data());
+  Kokkos::deep_copy(list, host);
+  return list;
 }
 
 ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab& slab,

@@ -73,6 +73,10 @@ class GridBoundaryConditions {
   void apply_to_momentum_and_force(const NodeFieldsView& state, ObstacleForces* forces = nullptr) const;
   // Step 9: the remapped momentum in columns column_x, column_x + 1 of `momentum`.
   void apply_to_momentum(const NodeFieldsView& momentum, int column_x, const NodeFieldsView& state) const;
+  // The nodes of `within` (local node indices) whose momentum, force or remapped momentum the two
+  // may change, in increasing order: the side lines they visit and the obstacles' nodes. (The
+  // energy budget's work of the conditions is a sum over these alone: boundary_work.)
+  IndexView conditioned_nodes(const IndexRange2D& within) const;
 
  private:
   GridSlab slab_;

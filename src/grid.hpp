@@ -148,7 +148,9 @@ struct GridFields {
   };
 
   // Momentum and force (step 3) and remapped momentum (step 8) as the particles gave them, before
-  // the boundary conditions: for the work those do (energy budget).
+  // the boundary conditions, on the nodes those may change (conditioned_node(k), this slab's
+  // share: GridBoundaryConditions::conditioned_nodes), row k: for the work the conditions do
+  // (energy budget). Elsewhere they change nothing, and their work there is none.
   enum BeforeConditionsColumn : int {
     raw_momentum_x = 0,
     raw_momentum_y,
@@ -161,16 +163,23 @@ struct GridFields {
 
   NodeFieldsView state;
   NodeFieldsView per_unit_mass;
+  IndexView conditioned_node;
   NodeFieldsView before_conditions;
 
   GridFields() = default;
   explicit GridFields(const GridGeometry& geometry)
       : state("node_state", geometry.num_nodes(), num_state_columns),
-        per_unit_mass("node_per_unit_mass", geometry.num_nodes(), num_per_unit_mass_columns),
-        before_conditions("node_before_conditions", geometry.num_nodes(), num_before_conditions_columns) {}
+        per_unit_mass("node_per_unit_mass", geometry.num_nodes(), num_per_unit_mass_columns) {}
+
+  // The nodes the boundary conditions may change, and room for their columns before them.
+  void set_conditioned_nodes(const IndexView& nodes) {
+    conditioned_node = nodes;
+    before_conditions = NodeFieldsView("node_before_conditions", nodes.extent(0), num_before_conditions_columns);
+  }
 
   size_t bytes() const {
-    return (state.span() + per_unit_mass.span() + before_conditions.span()) * sizeof(real_t);
+    return (state.span() + per_unit_mass.span() + before_conditions.span()) * sizeof(real_t) +
+           conditioned_node.span() * sizeof(index_t);
   }
 };
 

@@ -83,56 +83,48 @@ void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_
       });
 }
 
-namespace {
-
-// to(i, to_first + c) = from(i, from_first + c) for c < count, on every node.
-void copy_columns(const char* label, const NodeFieldsView& from, int from_first, const NodeFieldsView& to, int to_first,
-                  int count) {
-  Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(from.extent(0))), KOKKOS_LAMBDA(const index_t i) {
-        for (int c = 0; c < count; ++c) to(i, to_first + c) = from(i, from_first + c);
-      });
-}
-
-}  // namespace
-
 void keep_momentum_and_force_before_conditions(const GridFields& fields) {
   const NodeFieldsView state = fields.state, raw = fields.before_conditions;
+  const IndexView node_of = fields.conditioned_node;
   Kokkos::parallel_for(
-      "keep_momentum_and_force", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))),
-      KOKKOS_LAMBDA(const index_t i) {
-        raw(i, GridFields::raw_momentum_x) = state(i, GridFields::momentum_x);
-        raw(i, GridFields::raw_momentum_y) = state(i, GridFields::momentum_y);
-        raw(i, GridFields::raw_force_x) = state(i, GridFields::force_x);
-        raw(i, GridFields::raw_force_y) = state(i, GridFields::force_y);
+      "keep_momentum_and_force", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(node_of.extent(0))),
+      KOKKOS_LAMBDA(const index_t k) {
+        const index_t node = node_of(k);
+        raw(k, GridFields::raw_momentum_x) = state(node, GridFields::momentum_x);
+        raw(k, GridFields::raw_momentum_y) = state(node, GridFields::momentum_y);
+        raw(k, GridFields::raw_force_x) = state(node, GridFields::force_x);
+        raw(k, GridFields::raw_force_y) = state(node, GridFields::force_y);
       });
 }
 
 void keep_remap_before_conditions(const GridFields& fields) {
-  copy_columns("keep_remap", fields.state, GridFields::momentum_x, fields.before_conditions,
-               GridFields::raw_remap_momentum_x, 2);
+  const NodeFieldsView state = fields.state, raw = fields.before_conditions;
+  const IndexView node_of = fields.conditioned_node;
+  Kokkos::parallel_for(
+      "keep_remap", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(node_of.extent(0))),
+      KOKKOS_LAMBDA(const index_t k) {
+        raw(k, GridFields::raw_remap_momentum_x) = state(node_of(k), GridFields::momentum_x);
+        raw(k, GridFields::raw_remap_momentum_y) = state(node_of(k), GridFields::momentum_y);
+      });
 }
 
-double boundary_work(const GridFields& fields, const IndexRange2D& owned, const GridGeometry& geometry, real_t dt,
-                     real_t mass_threshold) {
-  if (owned.empty()) return 0;
+double boundary_work(const GridFields& fields, real_t dt, real_t mass_threshold) {
   const NodeFieldsView state = fields.state, raw = fields.before_conditions, per_unit_mass = fields.per_unit_mass;
-  const GridGeometry geo = geometry;
-  const index_t width = owned.extent_x(), i0 = owned.begin_x, j0 = owned.begin_y;
+  const IndexView node_of = fields.conditioned_node;
   double work = 0;
   Kokkos::parallel_reduce(
-      "boundary_work", Kokkos::RangePolicy<ExecutionSpace>(0, owned.size()),
+      "boundary_work", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(node_of.extent(0))),
       KOKKOS_LAMBDA(const index_t k, double& sum) {
-        const index_t node = geo.node_index(i0 + k % width, j0 + k / width);
+        const index_t node = node_of(k);
         const real_t inv_m = per_unit_node_mass(state(node, GridFields::mass), mass_threshold);
         // The particles' kinetic energy change, per dt ...
-        const real_t mean_momentum_x = real_t(0.5) * (raw(node, GridFields::raw_momentum_x) + raw(node, GridFields::raw_remap_momentum_x));
-        const real_t mean_momentum_y = real_t(0.5) * (raw(node, GridFields::raw_momentum_y) + raw(node, GridFields::raw_remap_momentum_y));
+        const real_t mean_momentum_x = real_t(0.5) * (raw(k, GridFields::raw_momentum_x) + raw(k, GridFields::raw_remap_momentum_x));
+        const real_t mean_momentum_y = real_t(0.5) * (raw(k, GridFields::raw_momentum_y) + raw(k, GridFields::raw_remap_momentum_y));
         const double kinetic = double(inv_m) * (state(node, GridFields::force_x) * mean_momentum_x +
                                                 state(node, GridFields::force_y) * mean_momentum_y);
         // ... plus their internal energy change.
-        const double internal = -(raw(node, GridFields::raw_force_x) * per_unit_mass(node, GridFields::remap_velocity_x) +
-                                  raw(node, GridFields::raw_force_y) * per_unit_mass(node, GridFields::remap_velocity_y));
+        const double internal = -(raw(k, GridFields::raw_force_x) * per_unit_mass(node, GridFields::remap_velocity_x) +
+                                  raw(k, GridFields::raw_force_y) * per_unit_mass(node, GridFields::remap_velocity_y));
         sum += kinetic + internal;
       },
       work);

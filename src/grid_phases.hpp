@@ -48,18 +48,21 @@ KOKKOS_INLINE_FUNCTION real_t node_volume_fraction(real_t particle_volume, real_
 void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area);
 
 // Copies the momentum and force columns of `state` (before step 4) or the remapped momentum
-// (before step 9) into `before_conditions`.
+// (before step 9) of the nodes the boundary conditions may change into `before_conditions`.
 void keep_momentum_and_force_before_conditions(const GridFields& fields);
 void keep_remap_before_conditions(const GridFields& fields);
 
 // The work the boundary conditions did on the particles over the step, with the energy-consistent
-// update, summed over the nodes in `owned`. The particles' kinetic energy changed by
+// update. The particles' kinetic energy changed by
 //   dt sum_i A_i . (mv_i + (mv)_remap,i) / 2,
 // A the acceleration after the conditions and the momenta as the particles gave them (FLIP's
 // change is the interpolated acceleration times the mean of the old and new velocities); their
 // internal energy by -dt sum_i f_i . v_mid,i, f the particles' own force and v_mid the velocity step
-// 10 differentiates. What the two do not cancel is the conditions' work.
-double boundary_work(const GridFields& fields, const IndexRange2D& owned, const GridGeometry& geometry, real_t dt,
-                     real_t mass_threshold);
+// 10 differentiates. What the two do not cancel is the conditions' work. On a node the conditions
+// leave alone, v_mid = (mv + (mv)_remap) / 2m and f = m A: the two cancel, so the sum runs over
+// the nodes they may change (GridFields::conditioned_node: this slab's share of them, the owned
+// nodes and the ghost nodes beyond the domain's sides), not over every node, where it would only
+// add round-off.
+double boundary_work(const GridFields& fields, real_t dt, real_t mass_threshold);
 
 }  // namespace mpmflow

@@ -77,8 +77,7 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
   double work_of_conditions = 0;
   if (energy_budget) {
     auto t = timers.scope(Phase::boundary_conditions);
-    work_of_conditions = boundary_work(grid, slab.slab().owned_nodes_with_outer_ghosts(), slab.geometry(), dt,
-                                       mass_threshold);
+    work_of_conditions = boundary_work(grid, dt, mass_threshold);
   }
   {  // 10. grad V = G2PD(mv / m); E', rho' (and Q) of the particles; 11. X' = X + dt V-bar, with
      // V-bar = G2P(mv' / m) at the same stencil (6. takes only A)

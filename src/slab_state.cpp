@@ -34,6 +34,8 @@ SlabState::SlabState(const CaseConfig& config, const ParallelContext& context, c
       halo_(slab, context, std::max<int>(GridFields::num_state_columns, GridFields::num_projection_columns)),
       obstacles_(make_obstacle_grid(config.obstacles, slab, config.boundaries)),
       grid_boundaries_(config, slab, obstacles_),
-      particle_boundaries_(config, slab, obstacles_) {}
+      particle_boundaries_(config, slab, obstacles_) {
+  fields_.set_conditioned_nodes(grid_boundaries_.conditioned_nodes(slab.owned_nodes_with_outer_ghosts()));
+}
 
 }  // namespace mpmflow
