@@ -510,6 +510,61 @@ TEST(OpenSides, ParticlesLeavingAreRemovedAndCounted) {
   EXPECT_NEAR(open_sides.fluxes().entered.mass, 48 * 1.4 * 0.01 / 4, 1e-12);
 }
 
+// ---- Grid boundary conditions --------------------------------------------------------------------
+
+// The energy budget sums the conditions' work over GridBoundaryConditions::conditioned_nodes
+// alone: every node of the slab's share (its owned nodes and the ghost nodes beyond the domain)
+// whose momentum or force a condition changes must be in that list. Every side type, an obstacle,
+// and the tunnel whole and cut into slabs along x and along y.
+TEST(GridConditions, ChangeOnlyTheNodesTheEnergyBudgetSumsOver) {
+  const CaseConfig config = tunnel_config(
+      R"(, "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"}, "bottom": {"type": "slip_wall"},
+          "top": {"type": "far_field"}}, "obstacles": [{"type": "circle", "centre": [2, 1], "radius": 0.25}])");
+  const std::vector<GridSlab> slabs = {make_grid_slab(config.domain, 0, 0, 40), make_grid_slab(config.domain, 0, 0, 19),
+                                       make_grid_slab(config.domain, 0, 19, 40), make_grid_slab(config.domain, 1, 0, 9),
+                                       make_grid_slab(config.domain, 1, 9, 20)};
+  for (const GridSlab& slab : slabs) {
+    const SlabState slab_state(config, slab);
+    const NodeFieldsView state = slab_state.fields().state;
+    const auto listed = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), slab_state.fields().conditioned_node);
+    const std::set<index_t> in_list(listed.data(), listed.data() + listed.extent(0));
+    EXPECT_EQ(in_list.size(), listed.extent(0));
+    EXPECT_TRUE(std::is_sorted(listed.data(), listed.data() + listed.extent(0)));
+    // Every node carries mass, momentum and force (no condition is idle for want of them).
+    // (Copies, not mirror views: on the host those would be `state` itself.)
+    const auto initial = Kokkos::create_mirror(state);
+    for (size_t node = 0; node < state.extent(0); ++node)
+      for (size_t c = 0; c < state.extent(1); ++c)
+        initial(node, c) = c == GridFields::mass ? 1 + 0.001 * (node % 7) : 0.3 + 0.01 * ((node * (c + 3)) % 11);
+    const IndexRange2D share = slab.owned_nodes_with_outer_ghosts();
+    const auto changed_nodes = [&](const auto& apply) {
+      Kokkos::deep_copy(state, initial);
+      apply();
+      const auto after = Kokkos::create_mirror(state);
+      Kokkos::deep_copy(after, state);
+      std::set<index_t> changed;
+      for (index_t j = share.begin_y; j < share.end_y; ++j)
+        for (index_t i = share.begin_x; i < share.end_x; ++i) {
+          const index_t node = slab.geometry.node_index(i, j);
+          for (size_t c = 0; c < state.extent(1); ++c)
+            if (after(node, c) != initial(node, c)) changed.insert(node);
+        }
+      return changed;
+    };
+    const GridBoundaryConditions& conditions = slab_state.grid_boundaries();
+    const std::set<index_t> by_step_4 = changed_nodes([&] { conditions.apply_to_momentum_and_force(state); });
+    const std::set<index_t> by_step_9 =
+        changed_nodes([&] { conditions.apply_to_momentum(state, GridFields::momentum_x, state); });
+    EXPECT_FALSE(by_step_4.empty());
+    EXPECT_FALSE(by_step_9.empty());
+    for (const std::set<index_t>* changed : {&by_step_4, &by_step_9})
+      for (const index_t node : *changed)
+        EXPECT_TRUE(in_list.count(node)) << "node " << node % slab.geometry.nodes_x << ", "
+                                         << node / slab.geometry.nodes_x << " of the slab from cell "
+                                         << slab.owned_cell_begin_x << ", " << slab.owned_cell_begin_y;
+  }
+}
+
 TEST(CounterRandom, UniformInUnitIntervalWithTheRightMean) {
   double sum = 0;
   for (int id = 0; id < 100000; ++id) {
