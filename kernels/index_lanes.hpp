@@ -38,4 +38,36 @@ void for_each_index_in_lanes(const char* label, index_t n, const Body& body) {
     Kokkos::parallel_for(label, Kokkos::RangePolicy<ExecutionSpace>(0, n), body);
 }
 
+// The largest value_of(i) for i in [0, n) (Kokkos::Max's identity, the lowest real, for n = 0); a
+// NaN counts as `nan_counts_as` (the caller's mark for a broken state, which must win). On CPUs
+// value_of runs as vector lanes over blocks of index_block_size indices (its divisions and square
+// roots 8 at a time), and each block's values are then compared one by one; elsewhere one index
+// per thread.
+KOKKOS_INLINE_FUNCTION void keep_larger(real_t value, real_t& so_far, real_t nan_counts_as) {
+  if (!(value <= so_far)) so_far = value == value ? value : nan_counts_as;
+}
+template <class ValueOf>
+real_t largest_over_indices(const char* label, index_t n, real_t nan_counts_as, const ValueOf& value_of) {
+  real_t largest = 0;
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
+    constexpr int L = index_block_size;
+    Kokkos::parallel_reduce(
+        label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L),
+        KOKKOS_LAMBDA(const index_t k, real_t& local) {
+          const index_t first = k * L;
+          const int count = n - first < L ? static_cast<int>(n - first) : L;
+          real_t value[L];
+          MPMFLOW_VECTORISE
+          for (int l = 0; l < count; ++l) value[l] = value_of(first + l);
+          for (int l = 0; l < count; ++l) keep_larger(value[l], local, nan_counts_as);
+        },
+        Kokkos::Max<real_t>(largest));
+  } else {
+    Kokkos::parallel_reduce(
+        label, Kokkos::RangePolicy<ExecutionSpace>(0, n),
+        KOKKOS_LAMBDA(const index_t i, real_t& local) { keep_larger(value_of(i), local, nan_counts_as); }, Kokkos::Max<real_t>(largest));
+  }
+  return largest;
+}
+
 }  // namespace mpmflow

@@ -1,6 +1,7 @@
 #include "grid_phases.hpp"
 
 #include "gas_physics.hpp"
+#include "kernels/index_lanes.hpp"
 
 namespace mpmflow {
 namespace {
@@ -23,21 +24,17 @@ void reset_momentum(const GridFields& fields) {
 
 real_t max_node_signal_speed(const GridFields& fields, real_t gamma, real_t mass_threshold) {
   const NodeFieldsView state = fields.state;
-  real_t fastest = 0;
-  Kokkos::parallel_reduce(
-      "node_signal_speed", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))),
-      KOKKOS_LAMBDA(const index_t i, real_t& local_max) {
+  // (Selects, not an early return for empty nodes: the nodes run as vector lanes.)
+  return largest_over_indices(
+      "node_signal_speed", static_cast<index_t>(state.extent(0)), largest_real, KOKKOS_LAMBDA(const index_t i) {
         const real_t m = state(i, GridFields::mass);
-        if (!(m > mass_threshold)) return;
-        const real_t inv_m = real_t(1) / m;
+        const bool holds_mass = m > mass_threshold;
+        const real_t inv_m = real_t(1) / (holds_mass ? m : real_t(1));
         // sound_speed(gamma, P, rho) = sqrt(gamma P / rho): here sqrt(gamma (sum phi P V) / (sum phi M)).
         const real_t speed = signal_speed(state(i, GridFields::momentum_x) * inv_m, state(i, GridFields::momentum_y) * inv_m,
-                                          sound_speed(gamma, state(i, GridFields::pressure_volume), m));
-        // A NaN speed must win (the state is broken): it compares false with everything.
-        if (!(speed <= local_max)) local_max = speed == speed ? speed : largest_real;
-      },
-      Kokkos::Max<real_t>(fastest));
-  return fastest;
+                                          sound_speed(gamma, state(i, GridFields::pressure_volume), holds_mass ? m : real_t(1)));
+        return holds_mass ? speed : real_t(0);
+      });
 }
 
 void update_grid_momentum(const GridFields& fields, real_t dt, real_t mass_threshold) {

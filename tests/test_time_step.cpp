@@ -12,7 +12,10 @@
 #include "gas_physics.hpp"
 #include "particles.hpp"
 #include "solver.hpp"
+#include "grid_phases.hpp"
+#include "slab_state.hpp"
 #include "transfers.hpp"
+#include "kernels/index_lanes.hpp"
 #include "kernels/transfer_kernels.hpp"
 
 namespace mpmflow {
@@ -63,6 +66,63 @@ TEST(TimeStep, ASurelyValidStateIsValid) {
   EXPECT_GT(surely, 0);
   EXPECT_TRUE(surely_valid_gas_state(gamma, 1.4, 1.78, 3, -0.5));
   EXPECT_TRUE(surely_valid_gas_state(gamma, 1e-6, 1e-8, 0, 0));
+}
+
+// largest_over_indices (the nodes' signal speed runs in its vector lanes): the largest value over
+// lengths that end within a block of lanes and on its edge, wherever in the range it lies; a NaN
+// anywhere wins as the caller's mark; no indices give Kokkos::Max's identity.
+TEST(TimeStep, TheLargestOverIndicesFindsItAnywhereAndANaNWins) {
+  const real_t mark = std::numeric_limits<real_t>::max(), nan = std::nan("");
+  for (index_t n : {1, 31, 32, 33, 100, 1000}) {
+    for (index_t at : {index_t(0), n / 2, n - 1}) {
+      RealView values("values", n);
+      auto host = Kokkos::create_mirror_view(values);
+      for (index_t i = 0; i < n; ++i) host(i) = real_t(0.5) + real_t(i % 7) / 16;
+      host(at) = 3;
+      Kokkos::deep_copy(values, host);
+      const auto value_of = KOKKOS_LAMBDA(const index_t i) { return values(i); };
+      EXPECT_EQ(largest_over_indices("test_largest", n, mark, value_of), 3) << n << " " << at;
+      Kokkos::deep_copy(Kokkos::subview(values, at), nan);
+      EXPECT_EQ(largest_over_indices("test_largest", n, mark, value_of), mark) << n << " " << at;
+    }
+  }
+  RealView none("none", 0);
+  EXPECT_EQ(largest_over_indices("test_largest", 0, mark, KOKKOS_LAMBDA(const index_t i) { return none(i); }),
+            std::numeric_limits<real_t>::lowest());
+}
+
+// The nodes' signal speed is |mv / m| + sqrt(gamma (sum phi P V) / m) over the nodes holding more
+// than the threshold's mass: against a host loop, over a grid of varied nodes, one of them fast
+// and one nearly empty node faster, which must not count.
+TEST(TimeStep, TheNodesSignalSpeedIsTheLargestOverTheNodesHoldingMass) {
+  const CaseConfig config = sod_case();
+  const SlabState slab_state(config, make_grid_slab(config.domain, 0, config.domain.cells_x));
+  const GridFields& fields = slab_state.fields();
+  auto state = Kokkos::create_mirror_view(fields.state);
+  const index_t fast = 57, empty = 90, nodes = static_cast<index_t>(state.extent(0));
+  ASSERT_GT(nodes, empty);
+  for (index_t i = 0; i < nodes; ++i) {
+    const real_t m = real_t(0.5) + real_t(i % 5) / 10;
+    state(i, GridFields::mass) = m;
+    state(i, GridFields::momentum_x) = real_t(i % 3 - 1) * m / 5;
+    state(i, GridFields::momentum_y) = real_t(i % 4) * m / 7;
+    state(i, GridFields::pressure_volume) = m * (1 + real_t(i % 6) / 10);
+  }
+  state(fast, GridFields::momentum_x) = 7 * state(fast, GridFields::mass);
+  state(empty, GridFields::mass) = 1e-30;
+  state(empty, GridFields::momentum_x) = 100 * 1e-30;
+  Kokkos::deep_copy(fields.state, state);
+  const real_t gamma = 1.4, threshold = 1e-20;
+  real_t expected = 0;
+  for (index_t i = 0; i < nodes; ++i) {
+    const real_t m = state(i, GridFields::mass);
+    if (!(m > threshold)) continue;
+    expected = std::max(expected, std::hypot(state(i, GridFields::momentum_x) / m, state(i, GridFields::momentum_y) / m) +
+                                      std::sqrt(gamma * state(i, GridFields::pressure_volume) / m));
+  }
+  EXPECT_GT(expected, 7);
+  EXPECT_LT(expected, 100);
+  EXPECT_NEAR(max_node_signal_speed(fields, gamma, threshold), expected, 1e-14 * expected);
 }
 
 // Step 3's P2G counts the particles in doubt of its own pass, with each P2G strategy: none, then
