@@ -139,7 +139,7 @@ void shuffle_particles(ParticleState& particles) {
   auto host = Kokkos::create_mirror_view(permutation);
   for (index_t k = 0; k < n; ++k) host(k) = order[k];
   Kokkos::deep_copy(permutation, host);
-  particles.for_each_field([&](const auto& field) { permute_particle_field(field, permutation, n); });
+  particles.for_each_field_mutable([&](auto& field) { field = permuted_particle_field(field, permutation, n); });
 }
 
 // One solver at a time (rows of the same run are adjacent): creating it is timed for memory only.

@@ -17,11 +17,6 @@ void reset_grid(const GridFields& fields) {
   Kokkos::deep_copy(fields.state, real_t(0));
 }
 
-void reset_momentum(const GridFields& fields) {
-  const auto momentum_columns = std::make_pair(int(GridFields::momentum_x), int(GridFields::momentum_y) + 1);
-  Kokkos::deep_copy(Kokkos::subview(fields.state, Kokkos::ALL, momentum_columns), real_t(0));
-}
-
 real_t max_node_signal_speed(const GridFields& fields, real_t gamma, real_t mass_threshold) {
   const NodeFieldsView state = fields.state;
   // (Selects, not an early return for empty nodes: the nodes run as vector lanes.)
@@ -41,11 +36,14 @@ void update_grid_momentum(const GridFields& fields, real_t dt, real_t mass_thres
   const NodeFieldsView state = fields.state, per_unit_mass = fields.per_unit_mass;
   Kokkos::parallel_for(
       "grid_momentum_update", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))), KOKKOS_LAMBDA(const index_t i) {
-        state(i, GridFields::momentum_x) += dt * state(i, GridFields::force_x);
-        state(i, GridFields::momentum_y) += dt * state(i, GridFields::force_y);
+        const real_t momentum_x = state(i, GridFields::momentum_x) + dt * state(i, GridFields::force_x);
+        const real_t momentum_y = state(i, GridFields::momentum_y) + dt * state(i, GridFields::force_y);
+        // (mv)' lives on as V-bar; its columns take the remap's sums next (step 8).
+        state(i, GridFields::momentum_x) = 0;
+        state(i, GridFields::momentum_y) = 0;
         const real_t inv_m = per_unit_node_mass(state(i, GridFields::mass), mass_threshold);
-        per_unit_mass(i, GridFields::velocity_x) = state(i, GridFields::momentum_x) * inv_m;
-        per_unit_mass(i, GridFields::velocity_y) = state(i, GridFields::momentum_y) * inv_m;
+        per_unit_mass(i, GridFields::velocity_x) = momentum_x * inv_m;
+        per_unit_mass(i, GridFields::velocity_y) = momentum_y * inv_m;
         per_unit_mass(i, GridFields::acceleration_x) = state(i, GridFields::force_x) * inv_m;
         per_unit_mass(i, GridFields::acceleration_y) = state(i, GridFields::force_y) * inv_m;
       });

@@ -7,8 +7,6 @@ namespace mpmflow {
 
 // 2. Zeroes the columns the step's P2Gs accumulate into.
 void reset_grid(const GridFields& fields);
-// Before step 8: zeroes the momentum columns, which held (mv)' (V-bar keeps it), for the remap.
-void reset_momentum(const GridFields& fields);
 
 // The largest signal speed |v| + c over the nodes with more mass than `mass_threshold`, from
 // step 3's P2G: v = mv / m and c^2 = gamma sum_p phi P V / sum_p phi M, the mass-weighted mean of
@@ -21,7 +19,9 @@ real_t max_node_signal_speed(const GridFields& fields, real_t gamma, real_t mass
 
 // 5. The momentum equation on the grid, (mv)' = mv + dt f; then, per unit node mass, the
 // velocity V-bar = (mv)' / m and the acceleration A = f / m that step 6 interpolates. Nodes with
-// no more mass than `mass_threshold` count as empty: no velocity, no acceleration.
+// no more mass than `mass_threshold` count as empty: no velocity, no acceleration. The momentum
+// columns are left zero, for step 8's remap to sum into (a pass over the nodes fewer than
+// clearing them apart).
 void update_grid_momentum(const GridFields& fields, real_t dt, real_t mass_threshold);
 
 // The velocity step 10 differentiates: the remapped momentum (step 8) per unit node mass; with

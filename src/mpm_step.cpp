@@ -38,13 +38,10 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     if (energy_budget) keep_momentum_and_force_before_conditions(grid);
     slab.grid_boundaries().apply_to_momentum_and_force(grid.state, &s.obstacle_forces);
   }
-  {  // 5. (mv)' = mv + dt f; V-bar = (mv)' / m and A = f / m on the nodes
+  {  // 5. (mv)' = mv + dt f; V-bar = (mv)' / m and A = f / m on the nodes; the momentum columns
+     // cleared for the remap of step 8
     auto t = timers.scope(Phase::grid_momentum_update);
     update_grid_momentum(grid, dt, mass_threshold);
-  }
-  {  // ... and the momentum columns cleared for the remap of step 8
-    auto t = timers.scope(Phase::grid_reset);
-    reset_momentum(grid);
   }
   if (settings.fused_kernels) {  // 6.-8. in one pass over the particles (V-bar: see 11)
     auto t = timers.scope(Phase::g2p_p2g_velocity_momentum);
@@ -116,7 +113,7 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
   }
   if (settings.reorder_interval > 0 && step % settings.reorder_interval == 0) {  // 12. optional reordering
     auto t = timers.scope(Phase::reorder);
-    reorder_particles_by_cell(particles, slab.geometry().num_cells());
+    reorder_particles_by_cell(s.particles, slab.geometry().num_cells());
   }
 }
 

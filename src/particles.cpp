@@ -124,10 +124,10 @@ void update_cell_map(const GridGeometry& geometry, const ParticleState& particle
       KOKKOS_LAMBDA(const index_t p) { cell(p) = geometry.cell_of(x(p), y(p)); });
 }
 
-void reorder_particles_by_cell(const ParticleState& particles, index_t num_cells) {
+void reorder_particles_by_cell(ParticleState& particles, index_t num_cells) {
   CellOrder order;
   order.build(particles.cell, particles.count, num_cells);
-  particles.for_each_field([&](const auto& field) { order.apply(field); });
+  particles.for_each_field_mutable([&](auto& field) { field = order.apply(field); });
 }
 
 index_t count_invalid_gas_states(const ParticleState& particles, real_t gamma) {

@@ -31,7 +31,7 @@ struct ParticleState {
 
   // Calls f(view) for every per-particle View: the one list of the fields, for everything that
   // must treat all of them alike (reordering, migration, checkpoints, memory accounting). The
-  // non-const form may reallocate the Views (capacity growth).
+  // non-const form may reallocate the Views (capacity growth, reordering).
   template <class F>
   void for_each_field(F&& f) const {
     visit_fields(*this, f);
@@ -81,8 +81,9 @@ RealView particle_pressure(const ParticleState& particles, real_t gamma);
 void update_cell_map(const GridGeometry& geometry, const ParticleState& particles, index_t first = 0);
 
 // Algorithm 1, step 12: the particle arrays grouped by cell, in index order within a cell (the
-// same order on any thread count), so that particles close in space are close in memory.
-void reorder_particles_by_cell(const ParticleState& particles, index_t num_cells);
+// same order on any thread count), so that particles close in space are close in memory. The
+// fields' Views are replaced (as capacity growth replaces them): hold none across it.
+void reorder_particles_by_cell(ParticleState& particles, index_t num_cells);
 
 // The number of particles with an invalid gas state (is_valid_gas_state: a NaN or non-positive
 // density, a NaN pressure, or a signal speed |v| + c that is not finite); the time step's check.
