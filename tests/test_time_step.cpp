@@ -68,6 +68,12 @@ TEST(TimeStep, ASurelyValidStateIsValid) {
   EXPECT_TRUE(surely_valid_gas_state(gamma, 1e-6, 1e-8, 0, 0));
 }
 
+// The largest of the first n values with largest_over_indices (a free function: nvcc takes
+// device lambdas only in free or public member functions, and a TEST's body is private).
+real_t largest_of(const RealView& values, index_t n, real_t nan_counts_as) {
+  return largest_over_indices("test_largest", n, nan_counts_as, KOKKOS_LAMBDA(const index_t i) { return values(i); });
+}
+
 // largest_over_indices (the nodes' signal speed runs in its vector lanes): the largest value over
 // lengths that end within a block of lanes and on its edge, wherever in the range it lies; a NaN
 // anywhere wins as the caller's mark; no indices give Kokkos::Max's identity.
@@ -80,15 +86,12 @@ TEST(TimeStep, TheLargestOverIndicesFindsItAnywhereAndANaNWins) {
       for (index_t i = 0; i < n; ++i) host(i) = real_t(0.5) + real_t(i % 7) / 16;
       host(at) = 3;
       Kokkos::deep_copy(values, host);
-      const auto value_of = KOKKOS_LAMBDA(const index_t i) { return values(i); };
-      EXPECT_EQ(largest_over_indices("test_largest", n, mark, value_of), 3) << n << " " << at;
+      EXPECT_EQ(largest_of(values, n, mark), 3) << n << " " << at;
       Kokkos::deep_copy(Kokkos::subview(values, at), nan);
-      EXPECT_EQ(largest_over_indices("test_largest", n, mark, value_of), mark) << n << " " << at;
+      EXPECT_EQ(largest_of(values, n, mark), mark) << n << " " << at;
     }
   }
-  RealView none("none", 0);
-  EXPECT_EQ(largest_over_indices("test_largest", 0, mark, KOKKOS_LAMBDA(const index_t i) { return none(i); }),
-            std::numeric_limits<real_t>::lowest());
+  EXPECT_EQ(largest_of(RealView("none", 0), 0, mark), std::numeric_limits<real_t>::lowest());
 }
 
 // The nodes' signal speed is |mv / m| + sqrt(gamma (sum phi P V) / m) over the nodes holding more
