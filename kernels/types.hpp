@@ -3,7 +3,10 @@
 // configure time, and the View aliases. Grid and particle state are structure-of-arrays Views in
 // LayoutLeft (each field, or each component column, contiguous), so the same access pattern
 // coalesces on GPUs and vectorises on CPUs.
+#include <algorithm>
 #include <cstdint>
+#include <string>
+#include <vector>
 
 #include <Kokkos_Core.hpp>
 
@@ -37,6 +40,15 @@ using IndexView = Kokkos::View<index_t*, Kokkos::LayoutLeft, DeviceType>;
 using ParticleIdView = Kokkos::View<particle_id_t*, Kokkos::LayoutLeft, DeviceType>;
 // Several node fields side by side: (node, component), each component column contiguous.
 using NodeFieldsView = Kokkos::View<real_t**, Kokkos::LayoutLeft, DeviceType>;
+
+// A list of indices made on the host (nodes, particles), as a View of the execution space.
+inline IndexView to_device_indices(const char* label, const std::vector<index_t>& host) {
+  IndexView device(std::string(label), host.size());
+  const auto mirror = Kokkos::create_mirror_view(device);
+  std::copy(host.begin(), host.end(), mirror.data());
+  Kokkos::deep_copy(device, mirror);
+  return device;
+}
 
 // Whether a run reorders the particle arrays by cell as it goes (numerics/reorder_interval > 0), or
 // leaves them in the order they drift into: the CPU walk's tiles are chosen for it

@@ -233,11 +233,7 @@ IndexView GridBoundaryConditions::conditioned_nodes(const IndexRange2D& within) 
   }
   std::sort(nodes.begin(), nodes.end());
   nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
-  IndexView list("conditioned_nodes", nodes.size());
-  const auto host = Kokkos::create_mirror_view(list);
-  std::copy(nodes.begin(), nodes.end(), host.data());
-  Kokkos::deep_copy(list, host);
-  return list;
+  return to_device_indices("conditioned_nodes", nodes);
 }
 
 ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab& slab,

@@ -48,14 +48,6 @@ KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, in
   pt.mass(gone) = 0;
 }
 
-IndexView to_device_indices(const char* label, const std::vector<index_t>& host) {
-  IndexView device(std::string(label), host.size());
-  const auto mirror = Kokkos::create_mirror_view(device);
-  std::copy(host.begin(), host.end(), mirror.data());
-  Kokkos::deep_copy(device, mirror);
-  return device;
-}
-
 }  // namespace
 
 ParticleMerging::ParticleMerging(const CaseConfig& config, const GridGeometry& geometry)
