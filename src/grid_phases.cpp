@@ -24,10 +24,11 @@ real_t max_node_signal_speed(const GridFields& fields, real_t gamma, real_t mass
       "node_signal_speed", static_cast<index_t>(state.extent(0)), largest_real, KOKKOS_LAMBDA(const index_t i) {
         const real_t m = state(i, GridFields::mass);
         const bool holds_mass = m > mass_threshold;
-        const real_t inv_m = real_t(1) / (holds_mass ? m : real_t(1));
+        const real_t divisor = holds_mass ? m : real_t(1);  // (an empty node's speed is dropped below)
+        const real_t inv_m = real_t(1) / divisor;
         // sound_speed(gamma, P, rho) = sqrt(gamma P / rho): here sqrt(gamma (sum phi P V) / (sum phi M)).
         const real_t speed = signal_speed(state(i, GridFields::momentum_x) * inv_m, state(i, GridFields::momentum_y) * inv_m,
-                                          sound_speed(gamma, state(i, GridFields::pressure_volume), holds_mass ? m : real_t(1)));
+                                          sound_speed(gamma, state(i, GridFields::pressure_volume), divisor));
         return holds_mass ? speed : real_t(0);
       });
 }
@@ -78,29 +79,28 @@ void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_
       });
 }
 
-void keep_momentum_and_force_before_conditions(const GridFields& fields) {
+namespace {
+
+// before_conditions(k, to_first + c) = state(conditioned_node(k), from_first + c) for c < count.
+void keep_columns(const char* label, const GridFields& fields, int from_first, int to_first, int count) {
   const NodeFieldsView state = fields.state, raw = fields.before_conditions;
   const IndexView node_of = fields.conditioned_node;
   Kokkos::parallel_for(
-      "keep_momentum_and_force", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(node_of.extent(0))),
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(node_of.extent(0))),
       KOKKOS_LAMBDA(const index_t k) {
-        const index_t node = node_of(k);
-        raw(k, GridFields::raw_momentum_x) = state(node, GridFields::momentum_x);
-        raw(k, GridFields::raw_momentum_y) = state(node, GridFields::momentum_y);
-        raw(k, GridFields::raw_force_x) = state(node, GridFields::force_x);
-        raw(k, GridFields::raw_force_y) = state(node, GridFields::force_y);
+        for (int c = 0; c < count; ++c) raw(k, to_first + c) = state(node_of(k), from_first + c);
       });
 }
 
+}  // namespace
+
+void keep_momentum_and_force_before_conditions(const GridFields& fields) {
+  keep_columns("keep_momentum", fields, GridFields::momentum_x, GridFields::raw_momentum_x, 2);
+  keep_columns("keep_force", fields, GridFields::force_x, GridFields::raw_force_x, 2);
+}
+
 void keep_remap_before_conditions(const GridFields& fields) {
-  const NodeFieldsView state = fields.state, raw = fields.before_conditions;
-  const IndexView node_of = fields.conditioned_node;
-  Kokkos::parallel_for(
-      "keep_remap", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(node_of.extent(0))),
-      KOKKOS_LAMBDA(const index_t k) {
-        raw(k, GridFields::raw_remap_momentum_x) = state(node_of(k), GridFields::momentum_x);
-        raw(k, GridFields::raw_remap_momentum_y) = state(node_of(k), GridFields::momentum_y);
-      });
+  keep_columns("keep_remap", fields, GridFields::momentum_x, GridFields::raw_remap_momentum_x, 2);
 }
 
 double boundary_work(const GridFields& fields, real_t dt, real_t mass_threshold) {
