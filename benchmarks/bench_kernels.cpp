@@ -52,10 +52,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <iostream>
 #include <map>
 #include <memory>
 #include <numeric>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -353,22 +355,60 @@ void BM_Step(benchmark::State& state, RunSpec spec) {
   state.SetLabel(label_of(run));
 }
 
-std::vector<long> parse_cells(const std::string& list) {
-  std::vector<long> cells;
+// The items of a comma-separated list.
+std::vector<std::string> split_list(const std::string& list) {
+  std::vector<std::string> items;
   size_t start = 0;
   while (start < list.size()) {
     const size_t end = std::min(list.find(',', start), list.size());
-    cells.push_back(std::lround(std::stod(list.substr(start, end - start))));
+    items.push_back(list.substr(start, end - start));
     start = end + 1;
+  }
+  return items;
+}
+
+std::vector<long> parse_cells(const std::string& list) {
+  std::vector<long> cells;
+  for (const std::string& item : split_list(list)) {
+    size_t used = 0;
+    double value = 0;
+    try {
+      value = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used != item.size() || !(value >= 1))
+      throw std::invalid_argument("mpmflow_benchmarks: --cells: \"" + item + "\" is not a number of cells (expected e.g. 1e5)");
+    cells.push_back(std::lround(value));
   }
   return cells;
 }
 
-// The rows: every kernel and the step, per grid size, ppc and ordering; then at the target size
-// (1e5 cells, 9 ppc) the P2G strategies, the unfused kernels and the linear shape.
+// Shape functions by their case-file names (numerics/shape_function); an unknown name is an error
+// here, before any row runs, not one thrown by the case loader inside a row.
+std::vector<std::string> parse_shapes(const std::string& list) {
+  std::vector<std::string> shapes;
+  for (const std::string& item : split_list(list)) {
+    bool known = false;
+    std::string names;
+    for (const EnumName<ShapeFunction>& entry : EnumNames<ShapeFunction>::table) {
+      known = known || item == entry.name;
+      names += std::string(names.empty() ? "" : ", ") + entry.name;
+    }
+    if (!known)
+      throw std::invalid_argument("mpmflow_benchmarks: --shapes: unknown shape function \"" + item + "\" (expected " +
+                                  names + ")");
+    shapes.push_back(item);
+  }
+  return shapes;
+}
+
+// The rows: every kernel and the step, per shape function, grid size, ppc and ordering; then at the
+// target size (1e5 cells, 9 ppc) the P2G strategies, the unfused kernels and the linear shape.
 // Each row runs a fixed number of whole steps (a kernel row times its phase within them), so a
 // row costs the same whatever share of the step its kernel takes.
-void register_benchmarks(const std::vector<long>& cell_counts, bool matrix_only, int steps_per_row) {
+void register_benchmarks(const std::vector<std::string>& shapes, const std::vector<long>& cell_counts,
+                         bool matrix_only, int steps_per_row) {
   benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->Arg(triad_length)->Unit(benchmark::kMillisecond)->UseRealTime();
   const std::vector<Phase> kernels = {Phase::p2g_mass_momentum_force, Phase::g2p_p2g_velocity_momentum,
                                       Phase::g2pd_particle_update,    Phase::particle_move,
@@ -386,17 +426,19 @@ void register_benchmarks(const std::vector<long>& cell_counts, bool matrix_only,
         ->UseRealTime()
         ->Iterations(steps_per_row);
   };
-  for (long cells : cell_counts)
-    for (int ppc_axis : {2, 3, 4})
-      for (int reorder : {0, 1}) {
-        RunSpec spec;
-        spec.target_cells = cells;
-        spec.ppc_axis = ppc_axis;
-        spec.reorder_interval = reorder;
-        std::vector<Phase> phases = kernels;
-        if (reorder) phases.push_back(Phase::reorder);
-        add_run(spec, phases);
-      }
+  for (const std::string& shape : shapes)
+    for (long cells : cell_counts)
+      for (int ppc_axis : {2, 3, 4})
+        for (int reorder : {0, 1}) {
+          RunSpec spec;
+          spec.shape = shape;
+          spec.target_cells = cells;
+          spec.ppc_axis = ppc_axis;
+          spec.reorder_interval = reorder;
+          std::vector<Phase> phases = kernels;
+          if (reorder) phases.push_back(Phase::reorder);
+          add_run(spec, phases);
+        }
   if (matrix_only) return;
   RunSpec target;  // 1e5 cells, 9 ppc
   target.reorder_interval = 20;  // the case file's setting
@@ -419,25 +461,36 @@ void register_benchmarks(const std::vector<long>& cell_counts, bool matrix_only,
 // Options of this program, before Google Benchmark's own (--benchmark_filter, --benchmark_format,
 // --benchmark_out, ...):
 //   --cells=LIST    grid sizes of the kernel matrix, e.g. --cells=1e4,3e4,1e5 (default 1e4,1e5)
+//   --shapes=LIST   shape functions of the kernel matrix, e.g. --shapes=gimp,linear (default gimp)
 //   --matrix-only   only the matrix (grid sizes x ppc x ordering), not the target-size variants
 //   --steps=N       steps per row (default 20)
 int main(int argc, char** argv) {
-  std::string cells = "1e4,1e5";
+  std::string cells = "1e4,1e5", shapes = "gimp";
   bool matrix_only = false;
   int steps = 20;
   std::vector<char*> rest;
   for (int k = 0; k < argc; ++k) {
     const std::string arg = argv[k];
     if (arg.rfind("--cells=", 0) == 0) cells = arg.substr(8);
+    else if (arg.rfind("--shapes=", 0) == 0) shapes = arg.substr(9);
     else if (arg == "--matrix-only") matrix_only = true;
     else if (arg.rfind("--steps=", 0) == 0) steps = std::max(1, std::stoi(arg.substr(8)));
     else rest.push_back(argv[k]);
+  }
+  std::vector<long> cell_counts;
+  std::vector<std::string> shape_list;
+  try {
+    cell_counts = mpmflow::parse_cells(cells);
+    shape_list = mpmflow::parse_shapes(shapes);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << e.what() << "\n";
+    return 2;
   }
   int rest_count = static_cast<int>(rest.size());
   Kokkos::ScopeGuard kokkos(rest_count, rest.data());
   Kokkos::Tools::Experimental::set_allocate_data_callback(mpmflow::on_allocate);
   Kokkos::Tools::Experimental::set_deallocate_data_callback(mpmflow::on_deallocate);
-  mpmflow::register_benchmarks(mpmflow::parse_cells(cells), matrix_only, steps);
+  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, steps);
   benchmark::Initialize(&rest_count, rest.data());
   if (benchmark::ReportUnrecognizedArguments(rest_count, rest.data())) return 1;
   benchmark::RunSpecifiedBenchmarks();
