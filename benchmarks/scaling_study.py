@@ -14,9 +14,10 @@ and time per step against the number of particles:
   (f) throughput of the whole step (particle-steps per second).
 
 Writes benchmarks/results/scaling_study.csv (one row per kernel and run), scaling_study.json (the
-raw Google Benchmark output) and scaling_study.png. Run with Debian's python3 (matplotlib):
+raw Google Benchmark output) and scaling_study.png; with --shape linear (the paper's shape) or
+bspline, scaling_study_<shape>.{csv,json,png}. Run with Debian's python3 (matplotlib):
 
-  /usr/bin/python3 benchmarks/scaling_study.py [--cells 1e4,3e4,1e5,3e5] [--steps 10]
+  /usr/bin/python3 benchmarks/scaling_study.py [--cells 1e4,3e4,1e5,3e5] [--steps 10] [--shape gimp]
                                                [--binary build/openmp/bin/mpmflow_benchmarks]
 """
 import argparse
@@ -31,18 +32,26 @@ G2P_KERNELS = ("g2p_p2g_velocity_momentum", "g2pd_particle_update")
 P2G_KERNELS = ("p2g_mass_momentum_force",)
 
 
-def run_benchmarks(binary, cells, steps, json_path):
+SHAPES = ("gimp", "linear", "bspline")  # numerics/shape_function
+
+
+def results_name(shape):
+    """The results' file name without extension: the default shape keeps the study's first name."""
+    return "scaling_study" if shape == "gimp" else "scaling_study_" + shape
+
+
+def run_benchmarks(binary, cells, steps, shape, json_path):
     env = dict(os.environ, OMP_PROC_BIND=os.environ.get("OMP_PROC_BIND", "spread"),
                OMP_PLACES=os.environ.get("OMP_PLACES", "threads"))
-    command = [binary, "--matrix-only", "--cells=" + cells, "--steps=%d" % steps,
+    command = [binary, "--matrix-only", "--cells=" + cells, "--shapes=" + shape, "--steps=%d" % steps,
                "--benchmark_filter=BM_Kernel|BM_Step", "--benchmark_out=" + json_path,
                "--benchmark_out_format=json"]
     print("running:", " ".join(command), flush=True)
     subprocess.run(command, env=env, check=True, stdout=sys.stdout, stderr=sys.stderr)
 
 
-def read_rows(json_path):
-    """One dict per benchmark row: kernel (or 'step'), cells, ppc, reordered, particles, ms."""
+def read_rows(json_path, shape):
+    """One dict per benchmark row of `shape`: kernel (or 'step'), cells, ppc, reordered, particles, ms."""
     with open(json_path) as f:
         report = json.load(f)
     rows = []
@@ -57,6 +66,8 @@ def read_rows(json_path):
         else:
             continue
         target_cells, ppc_axis, reorder = int(rest[0]), int(rest[1]), int(rest[2])
+        if rest[3] != shape:
+            continue
         assert b["time_unit"] == "ms", b["time_unit"]
         row = {"kernel": kernel, "target_cells": target_cells, "cells": int(b["cells"]),
                "ppc": ppc_axis * ppc_axis, "reordered": int(reorder > 0), "particles": int(b["particles"]),
@@ -179,28 +190,31 @@ def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--cells", default="1e4,3e4,1e5,3e5", help="grid sizes (about this many cells)")
     p.add_argument("--steps", type=int, default=10, help="steps per benchmark row")
+    p.add_argument("--shape", default="gimp", choices=SHAPES, help="shape function (numerics/shape_function)")
     p.add_argument("--binary", default=os.path.join(ROOT, "build", "openmp", "bin", "mpmflow_benchmarks"))
     p.add_argument("--output", default=os.path.join(ROOT, "benchmarks", "results"))
     p.add_argument("--replot", action="store_true", help="only plot the existing scaling_study.json")
     args = p.parse_args()
 
     os.makedirs(args.output, exist_ok=True)
-    json_path = os.path.join(args.output, "scaling_study.json")
+    name = results_name(args.shape)
+    json_path = os.path.join(args.output, name + ".json")
     if not args.replot:
         if not os.path.exists(args.binary):
             sys.exit("scaling_study.py: %s not found: build first (bash scripts/build.sh)" % args.binary)
-        run_benchmarks(args.binary, args.cells, args.steps, json_path + ".tmp")
+        run_benchmarks(args.binary, args.cells, args.steps, args.shape, json_path + ".tmp")
         os.replace(json_path + ".tmp", json_path)
-    rows = read_rows(json_path)
+    rows = read_rows(json_path, args.shape)
     if not rows:
-        sys.exit("scaling_study.py: no benchmark rows in %s" % json_path)
-    csv_path = os.path.join(args.output, "scaling_study.csv")
+        sys.exit("scaling_study.py: no benchmark rows of shape %s in %s" % (args.shape, json_path))
+    csv_path = os.path.join(args.output, name + ".csv")
     write_csv(rows, csv_path + ".tmp")
     os.replace(csv_path + ".tmp", csv_path)
     threads = os.environ.get("OMP_NUM_THREADS", "all")
-    plot(rows, os.path.join(args.output, "scaling_study.png"),
-         "mpmflow kernel scaling, Mach 3 cylinder, GIMP, OpenMP (%s threads) on %s" % (threads, machine_description()))
-    print("wrote", csv_path, "and", os.path.join(args.output, "scaling_study.png"))
+    png_path = os.path.join(args.output, name + ".png")
+    plot(rows, png_path, "mpmflow kernel scaling, Mach 3 cylinder, %s shape, OpenMP (%s threads) on %s"
+         % ({"gimp": "GIMP", "bspline": "B-spline"}.get(args.shape, args.shape), threads, machine_description()))
+    print("wrote", csv_path, "and", png_path)
 
 
 if __name__ == "__main__":
