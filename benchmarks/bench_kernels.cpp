@@ -384,6 +384,20 @@ std::vector<long> parse_cells(const std::string& list) {
   return cells;
 }
 
+// Steps a row: a whole positive number.
+int parse_steps(const std::string& text) {
+  size_t used = 0;
+  long value = 0;
+  try {
+    value = std::stol(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || value < 1 || value > 1000000)
+    throw std::invalid_argument("mpmflow_benchmarks: --steps: \"" + text + "\" is not a number of steps (expected 1 to 1000000)");
+  return static_cast<int>(value);
+}
+
 // Shape functions by their case-file names (numerics/shape_function); an unknown name is an error
 // here, before any row runs, not one thrown by the case loader inside a row.
 std::vector<std::string> parse_shapes(const std::string& list) {
@@ -465,21 +479,22 @@ void register_benchmarks(const std::vector<std::string>& shapes, const std::vect
 //   --matrix-only   only the matrix (grid sizes x ppc x ordering), not the target-size variants
 //   --steps=N       steps per row (default 20)
 int main(int argc, char** argv) {
-  std::string cells = "1e4,1e5", shapes = "gimp";
+  std::string cells = "1e4,1e5", shapes = "gimp", steps_text = "20";
   bool matrix_only = false;
-  int steps = 20;
   std::vector<char*> rest;
   for (int k = 0; k < argc; ++k) {
     const std::string arg = argv[k];
     if (arg.rfind("--cells=", 0) == 0) cells = arg.substr(8);
     else if (arg.rfind("--shapes=", 0) == 0) shapes = arg.substr(9);
     else if (arg == "--matrix-only") matrix_only = true;
-    else if (arg.rfind("--steps=", 0) == 0) steps = std::max(1, std::stoi(arg.substr(8)));
+    else if (arg.rfind("--steps=", 0) == 0) steps_text = arg.substr(8);
     else rest.push_back(argv[k]);
   }
   std::vector<long> cell_counts;
   std::vector<std::string> shape_list;
+  int steps = 0;
   try {
+    steps = mpmflow::parse_steps(steps_text);
     cell_counts = mpmflow::parse_cells(cells);
     shape_list = mpmflow::parse_shapes(shapes);
   } catch (const std::invalid_argument& e) {
