@@ -367,35 +367,32 @@ std::vector<std::string> split_list(const std::string& list) {
   return items;
 }
 
+// A number that is the whole of an option's text, in [least, most] (and whole where asked); an
+// error naming the option and what it expects otherwise.
+double parse_number(const std::string& text, const char* option, const char* expected, double least, double most,
+                    bool whole) {
+  size_t used = 0;
+  double value = 0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !(value >= least && value <= most) || (whole && value != std::floor(value)))
+    throw std::invalid_argument(std::string("mpmflow_benchmarks: ") + option + ": \"" + text + "\" is not " + expected);
+  return value;
+}
+
 std::vector<long> parse_cells(const std::string& list) {
   std::vector<long> cells;
-  for (const std::string& item : split_list(list)) {
-    size_t used = 0;
-    double value = 0;
-    try {
-      value = std::stod(item, &used);
-    } catch (const std::exception&) {
-      used = 0;
-    }
-    if (used != item.size() || !(value >= 1))
-      throw std::invalid_argument("mpmflow_benchmarks: --cells: \"" + item + "\" is not a number of cells (expected e.g. 1e5)");
-    cells.push_back(std::lround(value));
-  }
+  for (const std::string& item : split_list(list))
+    cells.push_back(std::lround(parse_number(item, "--cells", "a number of cells (expected e.g. 1e5)", 1, 1e12, false)));
   return cells;
 }
 
 // Steps a row: a whole positive number.
 int parse_steps(const std::string& text) {
-  size_t used = 0;
-  long value = 0;
-  try {
-    value = std::stol(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || value < 1 || value > 1000000)
-    throw std::invalid_argument("mpmflow_benchmarks: --steps: \"" + text + "\" is not a number of steps (expected 1 to 1000000)");
-  return static_cast<int>(value);
+  return static_cast<int>(parse_number(text, "--steps", "a number of steps (expected 1 to 1000000)", 1, 1e6, true));
 }
 
 // Shape functions by their case-file names (numerics/shape_function); an unknown name is an error
