@@ -9,6 +9,23 @@
 #include "kernels/reductions.hpp"
 
 namespace mpmflow {
+namespace {
+
+// `field` moved to new storage of `capacity` entries: its first `count` copied, the rest unset
+// (beyond the particle count, as a reorder leaves them). Kokkos::resize zeroed the whole new View,
+// then copied the old one's whole extent, every new page written twice: the 12 fields of 881,000
+// particles growing by an eighth took 36-43 ms that way, 28-31 ms this way (README, Benchmarks).
+template <class ViewType>
+void move_to_larger_storage(ViewType& field, index_t capacity, index_t count) {
+  const ViewType grown(Kokkos::view_alloc(Kokkos::WithoutInitializing, field.label()), capacity);
+  const ViewType old = field;
+  Kokkos::parallel_for(
+      "particle_grow", Kokkos::RangePolicy<ExecutionSpace>(0, count),
+      KOKKOS_LAMBDA(const index_t p) { grown(p) = old(p); });
+  field = grown;
+}
+
+}  // namespace
 
 ParticleState::ParticleState(index_t n)
     : count(n),
@@ -27,7 +44,8 @@ ParticleState::ParticleState(index_t n)
 
 void ParticleState::reserve(index_t n) {
   if (n <= capacity()) return;
-  for_each_field_mutable([n](auto& field) { Kokkos::resize(field, n); });
+  const index_t kept = count;
+  for_each_field_mutable([n, kept](auto& field) { move_to_larger_storage(field, n, kept); });
 }
 
 GasState initial_state_at(const InitialStateConfig& initial, real_t x, real_t y) {

@@ -44,7 +44,7 @@ struct ParticleState {
   // Particles the Views can hold; `count` of them are in use. The count changes (migration, open
   // sides); the Views never shrink and grow geometrically, so that they rarely reallocate.
   index_t capacity() const { return static_cast<index_t>(position_x.extent(0)); }
-  // Grows every View to hold at least `n` particles, keeping the first `count`.
+  // Grows every View to hold at least `n` particles, keeping the first `count` (the rest unset).
   void reserve(index_t n);
   // Makes room for `n` particles: when the capacity is short, grows it to n plus an eighth of it
   // (amortised O(1) copies per particle added, at most 12.5 % spare: memory per particle matters

@@ -12,7 +12,10 @@
 #include <fstream>
 #include <map>
 #include <set>
+#include <string>
 #include <tuple>
+#include <type_traits>
+#include <vector>
 
 #include "boundary_conditions.hpp"
 #include "case_config.hpp"
@@ -508,6 +511,41 @@ TEST(OpenSides, ParticlesLeavingAreRemovedAndCounted) {
   EXPECT_NEAR(open_sides.fluxes().left.mass, (n - staying.size()) * 1.4 * 0.01 / 4, 1e-12);
   EXPECT_NEAR(open_sides.fluxes().left.momentum_x, 3 * open_sides.fluxes().left.mass, 1e-12);
   EXPECT_NEAR(open_sides.fluxes().entered.mass, 48 * 1.4 * 0.01 / 4, 1e-12);
+}
+
+// The particle Views grow as the gas entering and splitting need (grow_to_hold): every field of the
+// particles in use is kept, entry by entry, and keeps its label (the profiling regions and the
+// allocation counts name the fields by it).
+TEST(ParticleStorage, GrowingKeepsEveryFieldOfTheParticlesInUse) {
+  const index_t n = 1000, in_use = 700;
+  ParticleState pt(n);
+  pt.count = in_use;
+  // Field f's entry p: 1000 f + p (distinct across fields and particles; exact in every field type).
+  int f = 0;
+  pt.for_each_field([&](const auto& field) {
+    auto h = Kokkos::create_mirror_view(field);
+    for (index_t p = 0; p < n; ++p) h(p) = 1000 * f + p;
+    Kokkos::deep_copy(field, h);
+    ++f;
+  });
+  std::vector<std::string> labels;
+  pt.for_each_field([&](const auto& field) { labels.push_back(field.label()); });
+
+  pt.grow_to_hold(2 * n);
+  EXPECT_GE(pt.capacity(), 2 * n);
+  EXPECT_EQ(pt.count, in_use);
+  f = 0;
+  pt.for_each_field([&](const auto& field) {
+    SCOPED_TRACE(field.label());
+    EXPECT_EQ(field.label(), labels[static_cast<size_t>(f)]);
+    EXPECT_EQ(static_cast<index_t>(field.extent(0)), pt.capacity());
+    auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), field);
+    index_t wrong = 0;
+    for (index_t p = 0; p < in_use; ++p) wrong += h(p) == std::decay_t<decltype(h(p))>(1000 * f + p) ? 0 : 1;
+    EXPECT_EQ(wrong, 0);
+    ++f;
+  });
+  EXPECT_EQ(f, static_cast<int>(labels.size()));
 }
 
 // ---- Grid boundary conditions --------------------------------------------------------------------
