@@ -62,6 +62,7 @@
 #include <vector>
 
 #include "case_config.hpp"
+#include "host_memory.hpp"
 #include "kernels/particle_sort.hpp"
 #include "particles.hpp"
 #include "solver.hpp"
@@ -476,6 +477,7 @@ void register_benchmarks(const std::vector<std::string>& shapes, const std::vect
 //   --matrix-only   only the matrix (grid sizes x ppc x ordering), not the target-size variants
 //   --steps=N       steps per row (default 20)
 int main(int argc, char** argv) {
+  mpmflow::reuse_freed_host_memory();  // as the solver's executable does (host_memory.hpp)
   std::string cells = "1e4,1e5", shapes = "gimp", steps_text = "20";
   bool matrix_only = false;
   std::vector<char*> rest;

@@ -28,6 +28,7 @@
 #endif
 
 #include "case_config.hpp"
+#include "host_memory.hpp"
 #include "checkpoint.hpp"
 #include "exact_riemann.hpp"
 #include "parallel.hpp"
@@ -275,6 +276,7 @@ std::string choose_device(std::vector<std::string>& kokkos_args, const mpmflow::
 }  // namespace
 
 int main(int argc, char** argv) {
+  mpmflow::reuse_freed_host_memory();  // before any large allocation (host_memory.hpp)
 #ifdef MPMFLOW_HAVE_MPI
   MPI_Init(&argc, &argv);
 #endif

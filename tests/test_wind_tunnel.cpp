@@ -17,10 +17,13 @@
 #include <type_traits>
 #include <vector>
 
+#include <sys/resource.h>
+
 #include "boundary_conditions.hpp"
 #include "case_config.hpp"
 #include "counter_random.hpp"
 #include "geometry.hpp"
+#include "host_memory.hpp"
 #include "open_boundaries.hpp"
 #include "particles.hpp"
 #include "slab_state.hpp"
@@ -546,6 +549,35 @@ TEST(ParticleStorage, GrowingKeepsEveryFieldOfTheParticlesInUse) {
     ++f;
   });
   EXPECT_EQ(f, static_cast<int>(labels.size()));
+}
+
+// The reorder's new storage for a field takes the block that the field before it freed
+// (reuse_freed_host_memory): a particle field of 8e6 entries (64 MB, above glibc's largest mmap
+// threshold) allocated, written, freed and allocated again, the second writing faults in (almost)
+// no page. Served by mmap, as glibc does by default, each page of it faults again: 16,000.
+TEST(HostMemory, AFreedLargeFieldIsReusedWithoutFaultingItsPagesAgain) {
+  if (!std::is_same<MemorySpace, Kokkos::HostSpace>::value) GTEST_SKIP() << "the particle fields are not in host memory";
+#if !defined(__GLIBC__)
+  GTEST_SKIP() << "not glibc: the C library's allocator is left as it is";
+#endif
+  ASSERT_TRUE(reuse_freed_host_memory());
+  const index_t n = 8'000'000;
+  const auto minor_faults = [] {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return static_cast<long>(usage.ru_minflt);
+  };
+  const auto write_new_field = [&] {
+    const RealView field(Kokkos::view_alloc(Kokkos::WithoutInitializing, "particle_density"), n);
+    const long before = minor_faults();
+    Kokkos::deep_copy(field, real_t(1));
+    Kokkos::fence();
+    return minor_faults() - before;
+  };
+  const long first = write_new_field();
+  const long again = write_new_field();
+  EXPECT_GT(first, 10000);  // the first time, its pages are new (a 4 KiB page each: 15,625)
+  EXPECT_LT(again, 200);
 }
 
 // ---- Grid boundary conditions --------------------------------------------------------------------
