@@ -28,9 +28,9 @@
 #endif
 
 #include "case_config.hpp"
-#include "host_memory.hpp"
 #include "checkpoint.hpp"
 #include "exact_riemann.hpp"
+#include "host_memory.hpp"
 #include "parallel.hpp"
 #include "simulation.hpp"
 

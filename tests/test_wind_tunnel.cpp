@@ -552,9 +552,9 @@ TEST(ParticleStorage, GrowingKeepsEveryFieldOfTheParticlesInUse) {
 }
 
 // The reorder's new storage for a field takes the block that the field before it freed
-// (reuse_freed_host_memory): a particle field of 8e6 entries (64 MB, above glibc's largest mmap
-// threshold) allocated, written, freed and allocated again, the second writing faults in (almost)
-// no page. Served by mmap, as glibc does by default, each page of it faults again: 16,000.
+// (reuse_freed_host_memory): a field of 8e6 doubles (64 MB, above glibc's largest mmap threshold)
+// allocated, written, freed and allocated again, the second writing faults in (almost) no page.
+// Served by mmap, as glibc does by default, each of its 15,625 pages faults again.
 TEST(HostMemory, AFreedLargeFieldIsReusedWithoutFaultingItsPagesAgain) {
   if (!std::is_same<MemorySpace, Kokkos::HostSpace>::value) GTEST_SKIP() << "the particle fields are not in host memory";
 #if !defined(__GLIBC__)
@@ -568,9 +568,9 @@ TEST(HostMemory, AFreedLargeFieldIsReusedWithoutFaultingItsPagesAgain) {
     return static_cast<long>(usage.ru_minflt);
   };
   const auto write_new_field = [&] {
-    const RealView field(Kokkos::view_alloc(Kokkos::WithoutInitializing, "particle_density"), n);
+    const Kokkos::View<double*, DeviceType> field(Kokkos::view_alloc(Kokkos::WithoutInitializing, "large_field"), n);
     const long before = minor_faults();
-    Kokkos::deep_copy(field, real_t(1));
+    Kokkos::deep_copy(field, 1.0);
     Kokkos::fence();
     return minor_faults() - before;
   };
