@@ -38,6 +38,35 @@ void for_each_index_in_lanes(const char* label, index_t n, const Body& body) {
     Kokkos::parallel_for(label, Kokkos::RangePolicy<ExecutionSpace>(0, n), body);
 }
 
+// Runs body(i) for the i in [first, last) where maybe(i), for passes in which few indices have
+// work: on CPUs the test runs as vector lanes over blocks of index_block_size indices (a loop that
+// tests and branches on each index stays scalar), then body takes the block's selected indices one
+// by one; elsewhere (GPUs) one index per thread. maybe(i) reads, body(i) writes only what belongs
+// to i or adds through a ScatterView.
+template <class Maybe, class Body>
+void for_each_index_where(const char* label, index_t first, index_t last, const Maybe& maybe, const Body& body) {
+  if (first >= last) return;
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
+    constexpr int L = index_block_size;
+    const index_t n = last - first;
+    Kokkos::parallel_for(
+        label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L), KOKKOS_LAMBDA(const index_t k) {
+          const index_t begin = first + k * L;
+          const int count = last - begin < L ? static_cast<int>(last - begin) : L;
+          real_t selected[L];  // 1 or 0 (a real: GCC vectorises a select on reals)
+          MPMFLOW_VECTORISE
+          for (int l = 0; l < count; ++l) selected[l] = maybe(begin + l) ? real_t(1) : real_t(0);
+          for (int l = 0; l < count; ++l)
+            if (selected[l] != 0) body(begin + l);
+        });
+  } else {
+    Kokkos::parallel_for(
+        label, Kokkos::RangePolicy<ExecutionSpace>(first, last), KOKKOS_LAMBDA(const index_t i) {
+          if (maybe(i)) body(i);
+        });
+  }
+}
+
 // The largest value_of(i) for i in [0, n) (Kokkos::Max's identity, the lowest real, for n = 0); a
 // NaN counts as `nan_counts_as` (the caller's mark for a broken state, which must win). On CPUs
 // value_of runs as vector lanes over blocks of index_block_size indices (its divisions and square

@@ -8,6 +8,7 @@
 #include "gas_physics.hpp"
 #include <Kokkos_ScatterView.hpp>
 
+#include "kernels/index_lanes.hpp"
 #include "kernels/particle_compaction.hpp"
 
 namespace mpmflow {
@@ -150,32 +151,56 @@ void far_field_inward_speed(const EntrySide& side, const SlabState& slab_state,
 // the ranks or the particle order.
 constexpr double strip_volume_unit = 1.0 / 4294967296.0;  // of a cell's area
 
-void far_field_strip_volume(const EntrySide& side, const ParticleState& pt, const GridSlab& slab,
-                            const Kokkos::View<long long*, DeviceType>& volume) {
-  Kokkos::deep_copy(volume, 0LL);
+// The far-field sides whose strips one pass over the particles measures (at most four).
+struct FarFieldStrips {
+  int count = 0;
+  Kokkos::Array<int, num_sides> side;
+  Kokkos::Array<index_t, num_sides> first_cell, cells;  // the side's cells in the entry-cell arrays
+  Kokkos::Array<bool, num_sides> at;  // by Side: whether that side is one of them
+};
+
+// Adds the strip volumes of particles [first, last) to `volume`, for every far-field side at once,
+// at volume(side.first_cell + c): one read of the positions for all sides, and of the mass and
+// density only for the particles within a strip. Most particles lie in no strip: a test of the
+// four depths at once, in vector lanes, tells them, before the sides are taken one by one (as a
+// loop over the sides alone, the pass took 1.3 times as long as the three passes of one side each
+// that it replaced).
+void add_far_field_strip_volumes(const FarFieldStrips& strips, const ParticleState& pt, index_t first, index_t last,
+                                 const GridSlab& slab, const Kokkos::View<long long*, DeviceType>& volume) {
+  if (strips.count == 0 || first >= last) return;
   const DomainBox domain(slab);
-  const int s = side.side;
-  const bool along_x = s == bottom_side || s == top_side;
-  const real_t depth_of_strip = along_x ? slab.geometry.spacing_y : slab.geometry.spacing_x;
-  const real_t width = along_x ? slab.geometry.spacing_x : slab.geometry.spacing_y;
+  const real_t hx = slab.geometry.spacing_x, hy = slab.geometry.spacing_y;
   const double units_per_volume = 1.0 / (double(slab.cell_area()) * strip_volume_unit);
-  const index_t cells = side.cells;
   const RealView x = pt.position_x, y = pt.position_y, mass = pt.mass, density = pt.density;
   auto scatter = Kokkos::Experimental::create_scatter_view(volume);
-  Kokkos::parallel_for(
-      "far_field_strip_volume", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
-        real_t depth, along;
-        switch (s) {
-          case left_side: depth = x(p) - domain.x_min; along = y(p) - domain.y_min; break;
-          case right_side: depth = domain.x_max - x(p); along = y(p) - domain.y_min; break;
-          case bottom_side: depth = y(p) - domain.y_min; along = x(p) - domain.x_min; break;
-          default: depth = domain.y_max - y(p); along = x(p) - domain.x_min; break;
+  for_each_index_where(
+      "far_field_strip_volume", first, last,
+      KOKKOS_LAMBDA(const index_t p) {  // a superset of the strips below: depth < depth_of_strip, whatever its sign
+        const real_t xp = x(p), yp = y(p);
+        return (strips.at[left_side] & (xp - domain.x_min < hx)) | (strips.at[right_side] & (domain.x_max - xp < hx)) |
+               (strips.at[bottom_side] & (yp - domain.y_min < hy)) | (strips.at[top_side] & (domain.y_max - yp < hy));
+      },
+      KOKKOS_LAMBDA(const index_t p) {
+        const real_t xp = x(p), yp = y(p);
+        for (int k = 0; k < strips.count; ++k) {
+          const int s = strips.side[k];
+          const bool along_x = s == bottom_side || s == top_side;
+          const real_t depth_of_strip = along_x ? hy : hx, width = along_x ? hx : hy;
+          real_t depth, along;
+          switch (s) {
+            case left_side: depth = xp - domain.x_min; along = yp - domain.y_min; break;
+            case right_side: depth = domain.x_max - xp; along = yp - domain.y_min; break;
+            case bottom_side: depth = yp - domain.y_min; along = xp - domain.x_min; break;
+            default: depth = domain.y_max - yp; along = xp - domain.x_min; break;
+          }
+          if (!(depth >= 0 && depth < depth_of_strip)) continue;
+          const index_t cells = strips.cells[k];
+          index_t c = static_cast<index_t>(along / width);
+          c = c < 0 ? 0 : (c >= cells ? cells - 1 : c);
+          auto access = scatter.access();
+          access(strips.first_cell[k] + c) +=
+              static_cast<long long>(double(mass(p)) / double(density(p)) * units_per_volume + 0.5);
         }
-        if (!(depth >= 0 && depth < depth_of_strip)) return;
-        index_t c = static_cast<index_t>(along / width);
-        c = c < 0 ? 0 : (c >= cells ? cells - 1 : c);
-        auto access = scatter.access();
-        access(c) += static_cast<long long>(double(mass(p)) / double(density(p)) * units_per_volume + 0.5);
       });
   Kokkos::View<long long*, DeviceType> target = volume;  // (contribute takes the View by non-const reference)
   Kokkos::Experimental::contribute(target, scatter);
@@ -282,10 +307,7 @@ OpenBoundaries::OpenBoundaries(const CaseConfig& config, const GridSlab& slab)
   distance_before_ = Kokkos::View<double*, DeviceType>("entry_distance_before", first_cell);
   distance_after_ = Kokkos::View<double*, DeviceType>("entry_distance_after", first_cell);
   inward_speed_ = Kokkos::View<double*, DeviceType>("entry_inward_speed", first_cell);
-  index_t longest_far_field = 0;
-  for (const EntrySide& side : sides_)
-    if (side.far_field) longest_far_field = std::max(longest_far_field, side.cells);
-  strip_volume_ = Kokkos::View<long long*, DeviceType>("far_field_strip_volume", longest_far_field);
+  strip_volume_ = Kokkos::View<long long*, DeviceType>("far_field_strip_volume", first_cell);
 }
 
 void OpenBoundaries::restore(const std::vector<double>& entry_distance, const BoundaryFluxes& fluxes) {
@@ -343,6 +365,21 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
   auto before = Kokkos::create_mirror_view(distance_before_);
   auto after = Kokkos::create_mirror_view(distance_after_);
   auto speed = Kokkos::create_mirror_view(inward_speed_);
+  // Every far-field strip's volume in one pass; the particles that an earlier side lets in during
+  // this loop are added before a later side reads its strips, as a pass of each side's own did.
+  FarFieldStrips strips;
+  for (int s = 0; s < num_sides; ++s) strips.at[s] = false;
+  for (const EntrySide& side : sides_) {
+    if (!side.far_field) continue;
+    strips.at[side.side] = true;
+    strips.side[strips.count] = side.side;
+    strips.first_cell[strips.count] = side.first_cell;
+    strips.cells[strips.count] = side.cells;
+    ++strips.count;
+  }
+  Kokkos::deep_copy(strip_volume_, 0LL);
+  add_far_field_strip_volumes(strips, pt, 0, pt.count, slab, strip_volume_);
+  index_t measured = pt.count;  // particles [0, measured) are in strip_volume_
   for (const EntrySide& side : sides_) {
     const auto cells = std::make_pair(side.first_cell, side.first_cell + side.cells);
     // The gap each cell's strip next to a far-field side needs filled (in lengths along the normal).
@@ -352,8 +389,9 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
       far_field_inward_speed(side, slab_state, side_speed);
       Kokkos::deep_copy(Kokkos::subview(speed, cells), side_speed);
       slab_state.context().sum_in_place(speed.data() + side.first_cell, static_cast<int>(side.cells));
-      far_field_strip_volume(side, pt, slab, strip_volume_);
-      auto volume = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), strip_volume_);
+      add_far_field_strip_volumes(strips, pt, measured, pt.count, slab, strip_volume_);
+      measured = pt.count;
+      auto volume = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(strip_volume_, cells));
       slab_state.context().sum_in_place(volume.data(), static_cast<int>(side.cells));
       const bool along_x = side.side == bottom_side || side.side == top_side;
       const double depth_of_strip = along_x ? slab.geometry.spacing_y : slab.geometry.spacing_x;

@@ -159,7 +159,7 @@ class OpenBoundaries {
   // Per entry cell, for one step's kernels (allocated once): the entry distance before and after
   // the step and the inward speed.
   Kokkos::View<double*, DeviceType> distance_before_, distance_after_, inward_speed_;
-  Kokkos::View<long long*, DeviceType> strip_volume_;  // per cell along a far-field side
+  Kokkos::View<long long*, DeviceType> strip_volume_;  // per entry cell: its far-field strip's volume
   BoundaryFluxes fluxes_;
   IndexView leaving_;  // the list of the particles that left (select_indices), kept from step to step
 };

@@ -94,6 +94,33 @@ TEST(TimeStep, TheLargestOverIndicesFindsItAnywhereAndANaNWins) {
   EXPECT_EQ(largest_of(RealView("none", 0), 0, mark), std::numeric_limits<real_t>::lowest());
 }
 
+// Marks with for_each_index_where, where index i in [first, last) is a multiple of `every` (a
+// free function, for nvcc, as largest_of).
+IndexView marked_where(index_t n, index_t first, index_t last, index_t every) {
+  IndexView mark("mark", n);
+  for_each_index_where(
+      "test_where", first, last, KOKKOS_LAMBDA(const index_t i) { return i % every == 0; },
+      KOKKOS_LAMBDA(const index_t i) { mark(i) += 1; });
+  return mark;
+}
+
+// for_each_index_where (the far-field sides' strips take it): the body runs once for each index of
+// the range the test selects and for no other, over ranges that start and end within a block of
+// lanes and on its edges, and for no index of an empty range.
+TEST(TimeStep, ForEachIndexWhereRunsTheBodyForTheSelectedIndicesAlone) {
+  const index_t n = 1000;
+  for (index_t first : {0, 7, 32}) {
+    for (index_t last : {first, first + 1, index_t(64), index_t(999), n}) {
+      for (index_t every : {1, 5, 33}) {
+        const auto mark = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), marked_where(n, first, last, every));
+        index_t wrong = 0;
+        for (index_t i = 0; i < n; ++i) wrong += mark(i) != ((i >= first && i < last && i % every == 0) ? 1 : 0);
+        EXPECT_EQ(wrong, 0) << first << " " << last << " " << every;
+      }
+    }
+  }
+}
+
 // The nodes' signal speed is |mv / m| + sqrt(gamma (sum phi P V) / m) over the nodes holding more
 // than the threshold's mass: against a host loop, over a grid of varied nodes, one of them fast
 // and one nearly empty node faster, which must not count.
