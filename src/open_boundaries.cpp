@@ -156,7 +156,7 @@ struct FarFieldStrips {
   int count = 0;
   Kokkos::Array<int, num_sides> side;
   Kokkos::Array<index_t, num_sides> first_cell, cells;  // the side's cells in the entry-cell arrays
-  Kokkos::Array<bool, num_sides> at;  // by Side: whether that side is one of them
+  Kokkos::Array<bool, num_sides> at{};  // by Side: whether that side is one of them
 };
 
 // Adds the strip volumes of particles [first, last) to `volume`, for every far-field side at once,
@@ -368,7 +368,6 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
   // Every far-field strip's volume in one pass; the particles that an earlier side lets in during
   // this loop are added before a later side reads its strips, as a pass of each side's own did.
   FarFieldStrips strips;
-  for (int s = 0; s < num_sides; ++s) strips.at[s] = false;
   for (const EntrySide& side : sides_) {
     if (!side.far_field) continue;
     strips.at[side.side] = true;
@@ -377,8 +376,10 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
     strips.cells[strips.count] = side.cells;
     ++strips.count;
   }
-  Kokkos::deep_copy(strip_volume_, 0LL);
-  add_far_field_strip_volumes(strips, pt, 0, pt.count, slab, strip_volume_);
+  if (strips.count > 0) {  // (no far-field side, as in the cylinder: nothing to zero every step)
+    Kokkos::deep_copy(strip_volume_, 0LL);
+    add_far_field_strip_volumes(strips, pt, 0, pt.count, slab, strip_volume_);
+  }
   index_t measured = pt.count;  // particles [0, measured) are in strip_volume_
   for (const EntrySide& side : sides_) {
     const auto cells = std::make_pair(side.first_cell, side.first_cell + side.cells);
