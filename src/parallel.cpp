@@ -140,12 +140,23 @@ SlabDecomposition SlabDecomposition::even(const CaseConfig& config, int num_rank
   SlabDecomposition d;
   d.axis = config.decomposition.axis;
   const index_t cells = d.axis == 0 ? config.domain.cells_x : config.domain.cells_y;
-  if (cells < min_cells_per_slab * num_ranks)
+  // (One rank shares no nodes with another: any grid is one slab, as a shock tube one cell wide
+  // across the decomposition axis.)
+  if (num_ranks > 1 && cells < min_cells_per_slab * num_ranks) {
+    const index_t most_ranks = std::max<index_t>(1, cells / min_cells_per_slab);
+    const index_t other_cells = d.axis == 0 ? config.domain.cells_y : config.domain.cells_x;
+    const std::string other_axis =
+        other_cells >= min_cells_per_slab * num_ranks
+            ? std::string(", or /decomposition/axis \"") + (d.axis == 0 ? "y" : "x") + "\" (its " +
+                  std::to_string(other_cells) + " cells)"
+            : std::string();
     throw ConfigError(config.source + ": /domain/" + (d.axis == 0 ? "cells_x" : "cells_y") + ": " +
                       std::to_string(cells) + " cells along the decomposition axis cannot be split among " +
                       std::to_string(num_ranks) + " ranks; expected at least " +
                       std::to_string(min_cells_per_slab) + " cells per rank (the width of the particle stencil), "
-                      "i.e. at most " + std::to_string(cells / min_cells_per_slab) + " ranks, or a finer grid");
+                      "i.e. at most " + std::to_string(most_ranks) + (most_ranks == 1 ? " rank" : " ranks") +
+                      ", or a finer grid" + other_axis);
+  }
   d.cell_begin.resize(num_ranks + 1);
   for (int r = 0; r <= num_ranks; ++r) {
     const index_t base = cells / num_ranks, extra = cells % num_ranks;

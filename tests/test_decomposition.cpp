@@ -47,6 +47,22 @@ TEST(Decomposition, TooManyRanksIsAnErrorNamingTheKeyAndTheLimit) {
   EXPECT_NO_THROW(SlabDecomposition::even(config_with_cells(100, 9, /*axis=*/1), 3));
 }
 
+TEST(Decomposition, OneRankTakesAnyWidthAlongTheAxisButTwoNeedTheStencilEach) {
+  // A shock tube along y, one cell across, with the default axis x: one rank holds it whole.
+  const SlabDecomposition one = SlabDecomposition::even(config_with_cells(1, 100, /*axis=*/0), 1);
+  EXPECT_EQ(one.begin(0), 0);
+  EXPECT_EQ(one.end(0), 1);
+  try {
+    SlabDecomposition::even(config_with_cells(5, 100, /*axis=*/0), 2);
+    FAIL() << "no error";
+  } catch (const ConfigError& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("at most 1 rank,"), std::string::npos) << message;
+    EXPECT_NE(message.find("or /decomposition/axis \"y\" (its 100 cells)"), std::string::npos) << message;
+  }
+  EXPECT_NO_THROW(SlabDecomposition::even(config_with_cells(6, 100, /*axis=*/0), 2));
+}
+
 TEST(Decomposition, OwnerOfCellIsTheSlabHoldingIt) {
   SlabDecomposition d;
   d.cell_begin = {0, 5, 9, 20};
