@@ -29,8 +29,9 @@ enum class BoundaryType { slip_wall, inflow, outflow, far_field };
 // paper's recycling, which puts each particle that leaves back at an inflow (`recycle`, a fixed
 // count; a body's shock layer then starves the free stream of the mass it stores).
 enum class ParticleSupply { open, recycle };
-// Initial particles: the centres of a regular sub-grid of each cell, or uniform random positions
-// (the paper's choice for the wind-tunnel cases).
+// Initial particles: the centres of a regular sub-grid of each cell, or a uniform random position
+// in each cell of that sub-grid (random placement is the paper's choice for the wind-tunnel cases;
+// it draws anywhere in the cell, which clumps the particles: create_initial_particles).
 enum class ParticlePlacement { regular, random };
 enum class ObstacleShape { circle, rectangle, polygon };
 // How P2G combines contributions to a node: the execution space's ScatterView default

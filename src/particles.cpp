@@ -74,10 +74,16 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
         for (int a = 0; a < ppx; ++a) {
           // Global and cell-major, so ids do not depend on how the grid is split.
           const particle_id_t id = (static_cast<particle_id_t>(cj) * slab.global_cells_x + ci) * per_cell + b * ppx + a;
-          // Regular: the centres of a ppx x ppy sub-grid of the cell. Random: uniform in the cell,
-          // from the counter-based generator at step 0 (recycling uses steps >= 1).
-          const real_t fx = random ? real_t(counter_uniform(config.particles.seed, id, 0, 0)) : (a + real_t(0.5)) / ppx;
-          const real_t fy = random ? real_t(counter_uniform(config.particles.seed, id, 0, 1)) : (b + real_t(0.5)) / ppy;
+          // Regular: the centres of a ppx x ppy sub-grid of the cell. Random: uniform in its own
+          // cell of that sub-grid (stratified, as the free stream enters at open sides), from the
+          // counter-based generator at step 0 (recycling uses steps >= 1). Uniform in the whole
+          // cell, as the paper draws them, the particles clump: their volumes tile the space
+          // unevenly, and the uniform pressure pushes the gas about, twice the density scatter
+          // (7.5 % against 3.2 % in a Mach 0.3 tunnel at t = 1, tests/free_stream_noise.sh).
+          const real_t fx = random ? (a + real_t(counter_uniform(config.particles.seed, id, 0, 0))) / ppx
+                                   : (a + real_t(0.5)) / ppx;
+          const real_t fy = random ? (b + real_t(counter_uniform(config.particles.seed, id, 0, 1))) / ppy
+                                   : (b + real_t(0.5)) / ppy;
           const real_t px = slab.domain_x_min + hx * (ci + fx);
           const real_t py = slab.domain_y_min + hy * (cj + fy);
           if (!obstacles.empty() && obstacles(px, py).distance <= 0) continue;
