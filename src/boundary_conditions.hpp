@@ -51,7 +51,8 @@ struct DomainBox {
 //   f_i -= p_inf n \int_side N_i ds (a free stream at rest is then in equilibrium), its mass as
 //   inertia of the side nodes, whose acceleration is f / (m + m_outside);
 // - slip wall: the wall-normal component is removed.
-// Then, on nodes inside an obstacle, the inward normal component is removed (eqs. 21-22).
+// Then, on nodes inside an obstacle, the normal component is removed (eqs. 21-22 remove only its
+// inward part: boundary_conditions.cpp says why not).
 // The force the gas exerts on each obstacle (case order) in one step, as the grid transmits it,
 // summed over the nodes this slab owns.
 struct ObstacleForces {

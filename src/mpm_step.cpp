@@ -33,7 +33,7 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
   TransferKernels& transfers = s.transfers;
   const real_t mass_threshold = settings.node_mass_threshold;
   const bool energy_budget = settings.thermodynamics.energy_consistent;
-  {  // 4. boundary conditions on mv and f; obstacles (eqs. 21-22)
+  {  // 4. boundary conditions on mv and f; obstacles (eqs. 21-22, the whole normal component)
     auto t = timers.scope(Phase::boundary_conditions);
     if (energy_budget) keep_momentum_and_force_before_conditions(grid);
     slab.grid_boundaries().apply_to_momentum_and_force(grid.state, &s.obstacle_forces);
