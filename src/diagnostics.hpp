@@ -52,8 +52,8 @@ struct BoundaryFluxes {
   ConservationTotals entered;
   ConservationTotals left;
   // The work of the grid's boundary conditions (inflow velocity, outside pressure and inertia on
-  // open sides, the normal component removed at obstacles; none at slip walls): what the forces the particles feel
-  // do beyond the work of their own pressure (grid_phases.hpp, boundary_work).
+  // open sides, the normal component removed at obstacles; none at slip walls): what the forces
+  // the particles feel do beyond the work of their own pressure (grid_phases.hpp, boundary_work).
   double boundary_work = 0;
   // The kinetic energy of the velocity that particles crossing a slip wall or entering an
   // obstacle lose in the move (boundary_conditions.hpp).

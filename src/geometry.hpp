@@ -116,8 +116,8 @@ DeviceObstacleSet copy_to_device(const HostObstacleSet& host);
 
 // What the grid needs of the obstacles, computed once at start: the nodes inside an obstacle
 // (signed distance <= 0) with their outward normals, where the grid conditions remove the normal
-// momentum and force; and a flag per cell that an obstacle may reach into it, so that only particles in
-// flagged cells evaluate the exact distance after their move.
+// momentum and force; and a flag per cell that an obstacle may reach into it, so that only
+// particles in flagged cells evaluate the exact distance after their move.
 struct ObstacleGrid {
   DeviceObstacleSet obstacles;
   IndexView obstacle_nodes;
