@@ -71,7 +71,7 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
   // The splitting particles in index order, counted and listed in one pass (select_indices, into
   // the list of the last splits, grown where it is too short). (In a scope of its own: `before`
   // holds every particle View, which would otherwise stay allocated beside its grown copy when the
-  // halves make the Views grow below: all the particle fields twice, 75 B a particle more at the
+  // halves make the Views grow below: all the particle fields twice, 77 B a particle more at the
   // peak.)
   index_t num_local = 0;
   {
