@@ -347,11 +347,26 @@ CaseConfig recycling_tunnel_config() {
       "particle_supply": "recycle"})");
 }
 
+// A case on the small tunnel's whole grid (one slab of its 40 cells along x), with its slab's state
+// and its initial particles.
+struct WholeTunnel {
+  explicit WholeTunnel(const CaseConfig& case_config)
+      : config(case_config),
+        slab(make_grid_slab(config.domain, 0, 40)),
+        slab_state(config, slab),
+        particles(create_initial_particles(config, slab)) {}
+  const CaseConfig config;
+  const GridSlab slab;
+  const SlabState slab_state;
+  ParticleState particles;
+};
+
 TEST(Recycling, ReentersWhereItLeftAlongTheSideWithTheFreeStreamStateIndependentOfOrder) {
-  const CaseConfig config = recycling_tunnel_config();
-  const GridSlab slab = make_grid_slab(config.domain, 0, 40);
-  const SlabState slab_state(config, slab);
-  ParticleState forward = create_initial_particles(config, slab);
+  WholeTunnel tunnel(recycling_tunnel_config());
+  const CaseConfig& config = tunnel.config;
+  const GridSlab& slab = tunnel.slab;
+  const SlabState& slab_state = tunnel.slab_state;
+  ParticleState& forward = tunnel.particles;
   const index_t n = forward.count;
   // A split particle (half a placed particle's mass) keeps its mass through the recycling.
   const real_t placed_mass = real_t(1.4 * 0.01 / 4);
@@ -725,10 +740,8 @@ class AllocationPeak {
 // every View until the end of the split; the benchmark's GIMP cylinder then peaked at 215 B a
 // particle instead of 138.)
 TEST(ParticleSplitting, GrowingForTheHalvesHoldsNoFieldTwiceButTheOneBeingMoved) {
-  const CaseConfig config = tunnel_config();
-  const GridSlab slab = make_grid_slab(config.domain, 0, 40);
-  const SlabState slab_state(config, slab);
-  ParticleState particles = create_initial_particles(config, slab);
+  WholeTunnel tunnel(tunnel_config());
+  ParticleState& particles = tunnel.particles;
   const index_t n = particles.count;
   ASSERT_EQ(particles.capacity(), n);  // no spare: the halves must grow the Views
   {
@@ -747,11 +760,12 @@ TEST(ParticleSplitting, GrowingForTheHalvesHoldsNoFieldTwiceButTheOneBeingMoved)
   };
   long long old_total = 0, old_largest = 0;
   bytes_of_fields(old_total, old_largest);
-  ParticleSplitting splitting(config, slab);
+  ParticleSplitting splitting(tunnel.config, tunnel.slab);
   long long peak = 0;
   {
     const AllocationPeak allocations;
-    EXPECT_EQ(splitting.split(particles, slab_state.particle_boundaries(), slab_state.context()), (n + 1) / 2);
+    EXPECT_EQ(splitting.split(particles, tunnel.slab_state.particle_boundaries(), tunnel.slab_state.context()),
+              (n + 1) / 2);
     peak = allocations.peak();
   }
   ASSERT_GT(particles.capacity(), n);
