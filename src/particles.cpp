@@ -80,10 +80,9 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
           // cell, as the paper draws them, the particles clump: their volumes tile the space
           // unevenly, and the uniform pressure pushes the gas about, twice the density scatter
           // (7.5 % against 3.2 % in a Mach 0.3 tunnel at t = 1, tests/free_stream_noise.sh).
-          const real_t fx = random ? (a + real_t(counter_uniform(config.particles.seed, id, 0, 0))) / ppx
-                                   : (a + real_t(0.5)) / ppx;
-          const real_t fy = random ? (b + real_t(counter_uniform(config.particles.seed, id, 0, 1))) / ppy
-                                   : (b + real_t(0.5)) / ppy;
+          const real_t in_x = random ? real_t(counter_uniform(config.particles.seed, id, 0, 0)) : real_t(0.5);
+          const real_t in_y = random ? real_t(counter_uniform(config.particles.seed, id, 0, 1)) : real_t(0.5);
+          const real_t fx = (a + in_x) / ppx, fy = (b + in_y) / ppy;  // the place in the cell
           const real_t px = slab.domain_x_min + hx * (ci + fx);
           const real_t py = slab.domain_y_min + hy * (cj + fy);
           if (!obstacles.empty() && obstacles(px, py).distance <= 0) continue;
