@@ -255,13 +255,8 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     context.broadcast(conflict);
     if (!conflict.empty()) throw ConfigError(conflict);
   }
+  // (The move leaves `restart.particles` empty: the initial particles are the solver's alone.)
   Solver solver(config, context, restart.decomposition, std::move(restart.particles));
-  // The initial particles released: after the move above `restart.particles` still shared their
-  // Views (a use count of 2 there: Kokkos 3.4's View tracker has a copy constructor and no move
-  // one), so they stayed allocated the whole run beside the solver's own once those had grown or
-  // been reordered: every particle field once more, the cylinder's peak at 448 x 224 cells 210 MB
-  // instead of 129 (a Kokkos Tools allocation tracker).
-  restart.particles = ParticleState();
   solver.set_step_count(restart.clock.step);
   if (restarting) {
     solver.set_node_mass_threshold(static_cast<real_t>(restart.clock.node_mass_threshold));

@@ -567,6 +567,42 @@ TEST(ParticleStorage, GrowingKeepsEveryFieldOfTheParticlesInUse) {
   EXPECT_EQ(f, static_cast<int>(labels.size()));
 }
 
+// A moved ParticleState hands its fields over whole: the source keeps none (with Kokkos 3.4 a View's
+// move is a copy, and a defaulted move left the source sharing every field, which stayed allocated
+// as long as the source lived), and the target's are the only holders. A copy shares them.
+TEST(ParticleStorage, AMoveLeavesTheSourceHoldingNoField) {
+  auto expect_sole_holder = [](const ParticleState& target, const ParticleState& source, index_t count) {
+    EXPECT_EQ(target.count, count);
+    EXPECT_EQ(source.count, 0);
+    EXPECT_EQ(source.capacity(), 0);
+    target.for_each_field([](const auto& field) {
+      SCOPED_TRACE(field.label());
+      EXPECT_EQ(field.use_count(), 1);
+    });
+    source.for_each_field([](const auto& field) {
+      SCOPED_TRACE(field.label());
+      EXPECT_EQ(field.data(), nullptr);
+    });
+  };
+  ParticleState source(100);
+  source.count = 60;
+  const ParticleState copy = source;
+  EXPECT_EQ(copy.mass.data(), source.mass.data());
+  EXPECT_EQ(source.mass.use_count(), 2);
+  {
+    ParticleState only(100);
+    only.count = 60;
+    const ParticleState moved(std::move(only));
+    expect_sole_holder(moved, only, 60);
+  }
+  {
+    ParticleState only(100), assigned;
+    only.count = 60;
+    assigned = std::move(only);
+    expect_sole_holder(assigned, only, 60);
+  }
+}
+
 // The reorder's new storage for a field takes the block that the field before it freed
 // (reuse_freed_host_memory): a field of 8e6 doubles (64 MB, above glibc's largest mmap threshold)
 // allocated, written, freed and allocated again, the second writing faults in (almost) no page.
