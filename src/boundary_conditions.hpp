@@ -41,6 +41,16 @@ struct DomainBox {
     }
     clamp(x, y);
   }
+  // The inverse, unclamped: how deep (x, y) lies inside `side` (negative beyond it) and how far
+  // along it from its corner at x_min or y_min.
+  KOKKOS_INLINE_FUNCTION void depth_and_along_side(int side, real_t x, real_t y, real_t& depth, real_t& along) const {
+    switch (side) {
+      case left_side: depth = x - x_min; along = y - y_min; break;
+      case right_side: depth = x_max - x; along = y - y_min; break;
+      case bottom_side: depth = y - y_min; along = x - x_min; break;
+      default: depth = y_max - y; along = x - x_min; break;
+    }
+  }
 };
 
 // On the grid, per side (the side's node line and the ghost lines beyond it, which GIMP stencils

@@ -187,12 +187,7 @@ void add_far_field_strip_volumes(const FarFieldStrips& strips, const ParticleSta
           const bool along_x = s == bottom_side || s == top_side;
           const real_t depth_of_strip = along_x ? hy : hx, width = along_x ? hx : hy;
           real_t depth, along;
-          switch (s) {
-            case left_side: depth = xp - domain.x_min; along = yp - domain.y_min; break;
-            case right_side: depth = domain.x_max - xp; along = yp - domain.y_min; break;
-            case bottom_side: depth = yp - domain.y_min; along = xp - domain.x_min; break;
-            default: depth = domain.y_max - yp; along = xp - domain.x_min; break;
-          }
+          domain.depth_and_along_side(s, xp, yp, depth, along);
           if (!(depth >= 0 && depth < depth_of_strip)) continue;
           const index_t cells = strips.cells[k];
           index_t c = static_cast<index_t>(along / width);

@@ -451,6 +451,30 @@ EnteringRun enter_empty_tunnel(const CaseConfig& config, const std::vector<index
   return run;
 }
 
+// A side's depth and distance along it (the far-field strips' measure) undo the point placed at
+// them (the entering particles' placement), on every side; a point beyond a side is at a negative
+// depth.
+TEST(OpenSides, TheDepthAndPlaceAlongASideUndoThePointPlacedThere) {
+  DomainBox domain;
+  domain.x_min = -1, domain.x_max = 3, domain.y_min = 0.5, domain.y_max = 2;
+  for (int side : {left_side, right_side, bottom_side, top_side}) {
+    SCOPED_TRACE(side);
+    for (const auto& [along, depth] : {std::pair<real_t, real_t>{0.25, 0.125}, {1.0, 0.75}, {0.0, 0.0}}) {
+      real_t x, y, depth_back, along_back;
+      domain.point_inside_side(side, along, depth, x, y);
+      domain.depth_and_along_side(side, x, y, depth_back, along_back);
+      EXPECT_EQ(depth_back, depth);
+      EXPECT_EQ(along_back, along);
+    }
+  }
+  real_t depth, along;
+  domain.depth_and_along_side(left_side, -1.5, 1, depth, along);
+  EXPECT_EQ(depth, -0.5);
+  domain.depth_and_along_side(top_side, 0, 2.25, depth, along);
+  EXPECT_EQ(depth, -0.25);
+  EXPECT_EQ(along, 1);
+}
+
 TEST(OpenSides, InflowMassPerStepIsTheFreeStreamFluxWithinOneParticleAndIdsAreUnique) {
   for (const char* placement : {"regular", "random"}) {
     CaseConfig config = tunnel_config(R"(, "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"}})");
