@@ -61,6 +61,7 @@
 #include <string>
 #include <vector>
 
+#include "allocation_tracker.hpp"
 #include "case_config.hpp"
 #include "host_memory.hpp"
 #include "kernels/particle_sort.hpp"
@@ -72,29 +73,11 @@ namespace {
 
 // ---- Memory: every Kokkos allocation, through the Kokkos Tools callbacks ----------------------
 
-struct AllocationTracker {
-  std::map<const void*, std::uint64_t> live;
-  std::uint64_t current = 0, peak = 0;
-  bool paused = false;  // the benchmark's own arrays (the triad's) are not counted
-  void reset_peak() { peak = current; }
-};
+// Installed at its first use, which main makes right after Kokkos is initialised, for the whole
+// run (allocation_tracker.hpp).
 AllocationTracker& allocations() {
   static AllocationTracker tracker;
   return tracker;
-}
-void on_allocate(Kokkos_Profiling_SpaceHandle, const char*, const void* ptr, std::uint64_t size) {
-  AllocationTracker& t = allocations();
-  if (t.paused) return;
-  t.live[ptr] = size;
-  t.current += size;
-  t.peak = std::max(t.peak, t.current);
-}
-void on_deallocate(Kokkos_Profiling_SpaceHandle, const char*, const void* ptr, std::uint64_t) {
-  AllocationTracker& t = allocations();
-  const auto it = t.live.find(ptr);
-  if (it == t.live.end()) return;
-  t.current -= it->second;
-  t.live.erase(it);
 }
 
 // ---- The runs -------------------------------------------------------------------------------
@@ -152,8 +135,8 @@ struct Run {
   std::unique_ptr<Solver> solver;
   // Open sides change the particle count: the mean count over the steps of the last row.
   double particles = 0, cells = 0, nodes = 0;
-  std::uint64_t baseline_bytes = 0;  // allocated before the solver was built
-  std::uint64_t peak_bytes = 0;      // all Kokkos allocations while building it and stepping
+  long long baseline_bytes = 0;  // allocated before the solver was built
+  long long peak_bytes = 0;      // all Kokkos allocations while building it and stepping
 };
 
 // A row's label, with the strategy numerics/p2g = automatic took (the solver's choice).
@@ -167,7 +150,7 @@ std::string label_of(const Run& run) {
 // the allocation peak so far (the particle Views grow as the shock layer fills up).
 void observe_steps(Run& run, long long particle_steps_before, long steps) {
   if (steps > 0) run.particles = double(run.solver->particle_steps() - particle_steps_before) / steps;
-  run.peak_bytes = std::max<std::uint64_t>(run.peak_bytes, allocations().peak - run.baseline_bytes);
+  run.peak_bytes = std::max(run.peak_bytes, allocations().peak() - run.baseline_bytes);
 }
 
 Run& current_run() {
@@ -179,7 +162,7 @@ Run& run_for(const RunSpec& spec) {
   Run& run = current_run();
   if (run.solver && run.spec.key() == spec.key()) return run;
   run.solver.reset();
-  run.baseline_bytes = allocations().current;
+  run.baseline_bytes = allocations().current();
   allocations().reset_peak();
   run.spec = spec;
   run.config = cylinder_case(spec);
@@ -188,7 +171,7 @@ Run& run_for(const RunSpec& spec) {
   if (spec.reorder_interval == 0) shuffle_particles(run.solver->particles());
   // A few steps outside the timing: first-touch of the ScatterView copies, the bow shock forming.
   for (int k = 0; k < 3; ++k) run.solver->advance(run.solver->stable_time_step());
-  run.peak_bytes = allocations().peak - run.baseline_bytes;
+  run.peak_bytes = allocations().peak() - run.baseline_bytes;
   run.particles = run.solver->particles().count;
   run.cells = double(run.config.domain.cells_x) * run.config.domain.cells_y;
   run.nodes = slab.geometry.num_nodes();
@@ -502,8 +485,7 @@ int main(int argc, char** argv) {
   }
   int rest_count = static_cast<int>(rest.size());
   Kokkos::ScopeGuard kokkos(rest_count, rest.data());
-  Kokkos::Tools::Experimental::set_allocate_data_callback(mpmflow::on_allocate);
-  Kokkos::Tools::Experimental::set_deallocate_data_callback(mpmflow::on_deallocate);
+  mpmflow::allocations();  // counting from here
   mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, steps);
   benchmark::Initialize(&rest_count, rest.data());
   if (benchmark::ReportUnrecognizedArguments(rest_count, rest.data())) return 1;

@@ -19,6 +19,7 @@
 
 #include <sys/resource.h>
 
+#include "allocation_tracker.hpp"
 #include "boundary_conditions.hpp"
 #include "case_config.hpp"
 #include "counter_random.hpp"
@@ -758,43 +759,6 @@ TEST(GridConditions, ObstacleNodesKeepNoNormalMomentumOrForceAndTheBodyTakesTheF
 
 // ---- Memory at a growth ------------------------------------------------------------------------
 
-// Every Kokkos allocation while an AllocationPeak is in scope (the Kokkos Tools callbacks; none is set
-// otherwise in the tests): the most bytes allocated at once beyond those at its start.
-class AllocationPeak {
- public:
-  AllocationPeak() {
-    self() = this;
-    Kokkos::Tools::Experimental::set_allocate_data_callback(on_allocate);
-    Kokkos::Tools::Experimental::set_deallocate_data_callback(on_deallocate);
-  }
-  ~AllocationPeak() {
-    Kokkos::Tools::Experimental::set_allocate_data_callback(nullptr);
-    Kokkos::Tools::Experimental::set_deallocate_data_callback(nullptr);
-    self() = nullptr;
-  }
-  long long peak() const { return peak_; }
-
- private:
-  static AllocationPeak*& self() {
-    static AllocationPeak* current = nullptr;
-    return current;
-  }
-  static void on_allocate(Kokkos_Profiling_SpaceHandle, const char*, const void* ptr, std::uint64_t size) {
-    AllocationPeak& t = *self();
-    t.live_[ptr] = size;
-    t.current_ += static_cast<long long>(size);
-    t.peak_ = std::max(t.peak_, t.current_);
-  }
-  static void on_deallocate(Kokkos_Profiling_SpaceHandle, const char*, const void* ptr, std::uint64_t size) {
-    AllocationPeak& t = *self();
-    const auto it = t.live_.find(ptr);
-    t.current_ -= it != t.live_.end() ? static_cast<long long>(it->second) : static_cast<long long>(size);
-    if (it != t.live_.end()) t.live_.erase(it);
-  }
-  std::map<const void*, std::uint64_t> live_;
-  long long current_ = 0, peak_ = 0;
-};
-
 // When splitting makes the particle Views grow, each field's old storage goes as its new storage
 // comes: at no moment are all the fields held twice. (The splitting's selection kept a copy of
 // every View until the end of the split; the benchmark's GIMP cylinder then peaked at 215 B a
@@ -823,7 +787,7 @@ TEST(ParticleSplitting, GrowingForTheHalvesHoldsNoFieldTwiceButTheOneBeingMoved)
   ParticleSplitting splitting(tunnel.config, tunnel.slab);
   long long peak = 0;
   {
-    const AllocationPeak allocations;
+    const AllocationTracker allocations;
     EXPECT_EQ(splitting.split(particles, tunnel.slab_state.particle_boundaries(), tunnel.slab_state.context()),
               (n + 1) / 2);
     peak = allocations.peak();
