@@ -19,8 +19,10 @@ python3-numpy (scripts/setup.sh installs them).
   mpmflow_plot.py bow-shock OUTPUT_DIR [--centre X Y] [--radius R] [--mach M] [--gamma G]
                   [--pressure P] [--last K] [--max-standoff-error F] [--max-pitot-error F]
       The bow-shock stand-off distance and the nose pressure on the symmetry line of a cylinder in
-      supersonic flow, against Billig's correlation and the Rayleigh pitot formula; with the
-      --max-*-error options, exits 1 when an error exceeds the given fraction.
+      supersonic flow, against Billig's correlation and the Rayleigh pitot formula; the cylinder,
+      the free stream's Mach number and pressure, and gamma are the run's own (its case, stored in
+      the snapshots) unless given; with the --max-*-error options, exits 1 when an error exceeds the
+      given fraction.
   mpmflow_plot.py region OUTPUT_DIR --x A B [--y C D] [--density RHO] [--per-cell N] [--last K]
                   [--max-density-error F] [--max-per-cell-error F]
       The gas in a box: its mass per unit area (the particles' masses over the box's area) and its
@@ -493,14 +495,42 @@ def measure_bow_shock(s, centre, radius, mach, gamma, pressure):
     return shock_x, nose - shock_x, nose_pressure
 
 
+def bow_shock_setting(s, args):
+    """The cylinder and the free stream the bow shock is measured against: each option given, else
+    the run's own (the case in the snapshot): its one circle obstacle, its free stream's Mach number
+    and pressure, its gamma. An error naming the snapshot and the option to give where the case has
+    none to offer."""
+    case = s.effective_case
+    circles = [o for o in case.get("obstacles", []) if o.get("type") == "circle"]
+    free_stream = case.get("free_stream")
+    gamma = args.gamma if args.gamma is not None else s.gamma
+    centre, radius, mach, pressure = args.centre, args.radius, args.mach, args.pressure
+    if centre is None or radius is None:
+        if len(circles) != 1:
+            sys.exit(f"mpmflow_plot: error: {s.path}: the case has {len(circles)} circle obstacles, not one: "
+                     "give --centre X Y and --radius R")
+        centre = centre if centre is not None else [float(v) for v in circles[0]["centre"][:2]]
+        radius = radius if radius is not None else float(circles[0]["radius"])
+    if mach is None or pressure is None:
+        if not free_stream:
+            sys.exit(f"mpmflow_plot: error: {s.path}: the case has no free_stream: give --mach M and --pressure P")
+        rho, p = float(free_stream["density"]), float(free_stream["pressure"])
+        mach = mach if mach is not None else math.hypot(*free_stream["velocity"][:2]) / math.sqrt(gamma * p / rho)
+        pressure = pressure if pressure is not None else p
+    return centre, radius, mach, gamma, pressure
+
+
 def bow_shock(args):
     files = snapshot_files(args.output_dir)[-args.last:]
-    expected_standoff = billig_standoff(args.mach, args.radius)
-    expected_pitot = rayleigh_pitot(args.mach, args.gamma, args.pressure)
+    centre, radius, mach, gamma, pressure = bow_shock_setting(Snapshot(files[-1]), args)
+    print(f"cylinder at ({centre[0]:g}, {centre[1]:g}), radius {radius:g}; free stream Mach {mach:.4g}, "
+          f"pressure {pressure:g}, gamma {gamma:g}")
+    expected_standoff = billig_standoff(mach, radius)
+    expected_pitot = rayleigh_pitot(mach, gamma, pressure)
     standoffs, pitots = [], []
     for path in files:
         s = Snapshot(path)
-        m = measure_bow_shock(s, args.centre, args.radius, args.mach, args.gamma, args.pressure)
+        m = measure_bow_shock(s, centre, radius, mach, gamma, pressure)
         if m is None:
             print(f"t = {s.time:8.4f}: no shock found on the symmetry line")
             continue
@@ -956,11 +986,11 @@ def main():
     sod.add_argument("--out", help="PNG path (default: plots/<case>_comparison.png)")
     shock = sub.add_parser("bow-shock", help="stand-off distance and nose pressure of a cylinder's bow shock")
     shock.add_argument("output_dir")
-    shock.add_argument("--centre", type=float, nargs=2, default=[0.6, 1.0])
-    shock.add_argument("--radius", type=float, default=0.25)
-    shock.add_argument("--mach", type=float, default=3.0)
-    shock.add_argument("--gamma", type=float, default=1.4)
-    shock.add_argument("--pressure", type=float, default=1.0, help="free-stream pressure")
+    shock.add_argument("--centre", type=float, nargs=2, help="(default: the case's circle obstacle's)")
+    shock.add_argument("--radius", type=float, help="(default: the case's circle obstacle's)")
+    shock.add_argument("--mach", type=float, help="(default: the case's free stream's)")
+    shock.add_argument("--gamma", type=float, help="(default: the case's)")
+    shock.add_argument("--pressure", type=float, help="free-stream pressure (default: the case's)")
     shock.add_argument("--last", type=int, default=3, help="average over the last K outputs")
     shock.add_argument("--max-standoff-error", type=float)
     shock.add_argument("--max-pitot-error", type=float)
