@@ -5,10 +5,13 @@ shock radius by direction from the final snapshot, and the peak density.
 The shock radius in a direction is where the particle density, binned by radius in an angular
 sector, last crosses halfway between the ambient density and the sector's peak (the foot of a
 smeared shock rises to the peak over a few cells; halfway is its centre). Exact: R(t) =
-xi0 (E t^2 / rho)^(1/4), xi0 = 1.00402 for gamma 1.4, cylindrical.
+xi0 (E t^2 / rho)^(1/4), xi0 = 1.00402 for gamma 1.4, cylindrical. The blast is at --centre
+(default the origin, the corner of the quarter-plane case); the sectors cover every quadrant
+around it that the domain holds (one for the quarter plane, four for a blast in the middle of
+the box), --sectors in each.
 
-    sedov_check.py OUTPUT_DIR [--energy E] [--max-energy-change F] [--max-radius-error F]
-                   [--max-anisotropy F] [--max-balance-residual F]
+    sedov_check.py OUTPUT_DIR [--energy E] [--centre X Y] [--sectors N] [--max-energy-change F]
+                   [--max-radius-error F] [--max-anisotropy F] [--max-balance-residual F]
 exits 1 when a given bound is exceeded."""
 import argparse
 import csv
@@ -31,7 +34,8 @@ def main():
     parser.add_argument("--energy", type=float, default=0.311357, help="blast energy per unit length (full plane)")
     parser.add_argument("--ambient-density", type=float, default=1.0)
     parser.add_argument("--xi0", type=float, default=1.00402)
-    parser.add_argument("--sectors", type=int, default=6)
+    parser.add_argument("--centre", type=float, nargs=2, default=[0.0, 0.0], metavar=("X", "Y"))
+    parser.add_argument("--sectors", type=int, default=6, help="sectors per quadrant (6)")
     parser.add_argument("--max-energy-change", type=float)
     parser.add_argument("--max-radius-error", type=float)
     parser.add_argument("--max-balance-residual", type=float)
@@ -53,15 +57,24 @@ def main():
         rho = f["particles/density"][...]
     domain = case["domain"]
     h = (domain["x"][1] - domain["x"][0]) / domain["cells_x"]
-    r = np.hypot(xy[:, 0], xy[:, 1])
-    angle = np.arctan2(xy[:, 1], xy[:, 0])
+    cx, cy = args.centre
+    r = np.hypot(xy[:, 0] - cx, xy[:, 1] - cy)
+    angle = np.arctan2(xy[:, 1] - cy, xy[:, 0] - cx)
     exact = args.xi0 * (args.energy * t * t / args.ambient_density) ** 0.25
+    # The quadrants around the centre that the domain holds, each by its first angle (counter-
+    # clockwise from +x).
+    right, left = domain["x"][1] > cx, domain["x"][0] < cx
+    up, down = domain["y"][1] > cy, domain["y"][0] < cy
+    quadrants = [start for start, held in ((0.0, right and up), (0.5 * math.pi, left and up),
+                                            (-math.pi, left and down), (-0.5 * math.pi, right and down)) if held]
+    if not quadrants:
+        sys.exit(f"sedov_check: error: {path}: the domain holds no quadrant around the centre ({cx:g}, {cy:g})")
 
     radii, peaks = [], []
     edges = np.arange(0, r.max() + h, h / 2)
-    for s in range(args.sectors):
-        lo, hi = s * (math.pi / 2) / args.sectors, (s + 1) * (math.pi / 2) / args.sectors
-        sel = (angle >= lo) & (angle < hi)
+    width = (math.pi / 2) / args.sectors
+    for lo in (start + k * width for start in quadrants for k in range(args.sectors)):
+        sel = (angle >= lo) & (angle < lo + width)
         which = np.digitize(r[sel], edges) - 1
         sums = np.bincount(which, weights=rho[sel], minlength=len(edges))
         counts = np.bincount(which, minlength=len(edges))
