@@ -495,6 +495,12 @@ def measure_bow_shock(s, centre, radius, mach, gamma, pressure):
     return shock_x, nose - shock_x, nose_pressure
 
 
+def free_stream_mach(free_stream, gamma):
+    """The Mach number of a case's free stream (its speed over its sound speed)."""
+    rho, p = float(free_stream["density"]), float(free_stream["pressure"])
+    return math.hypot(*free_stream["velocity"][:2]) / math.sqrt(gamma * p / rho)
+
+
 def bow_shock_setting(s, args):
     """The cylinder and the free stream the bow shock is measured against: each option given, else
     the run's own (the case in the snapshot): its one circle obstacle, its free stream's Mach number
@@ -514,9 +520,8 @@ def bow_shock_setting(s, args):
     if mach is None or pressure is None:
         if not free_stream:
             sys.exit(f"mpmflow_plot: error: {s.path}: the case has no free_stream: give --mach M and --pressure P")
-        rho, p = float(free_stream["density"]), float(free_stream["pressure"])
-        mach = mach if mach is not None else math.hypot(*free_stream["velocity"][:2]) / math.sqrt(gamma * p / rho)
-        pressure = pressure if pressure is not None else p
+        mach = mach if mach is not None else free_stream_mach(free_stream, gamma)
+        pressure = pressure if pressure is not None else float(free_stream["pressure"])
     return centre, radius, mach, gamma, pressure
 
 
@@ -590,7 +595,7 @@ def oblique_shock(args):
         sys.exit(f"mpmflow_plot: error: {s.path}: the case has no free_stream")
     g = s.gamma
     rho1, p1 = float(s.free_stream["density"]), float(s.free_stream["pressure"])
-    mach = math.hypot(*s.free_stream["velocity"][:2]) / math.sqrt(g * p1 / rho1)
+    mach = free_stream_mach(s.free_stream, g)
     theta = math.radians(args.wedge_angle)
     beta = oblique_shock_angle(mach, g, theta)
     if beta is None:
