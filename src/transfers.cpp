@@ -16,7 +16,8 @@ namespace {
 using DoubtCounter = Kokkos::Experimental::ScatterView<index_t*, Kokkos::LayoutLeft, DeviceType>;
 
 // P2G(I, M), P2G(I, M Vx), P2G(I, M Vy), P2G(I, P M / rho) for the nodes' sound speed (the
-// time step, node_signal_speed), and P2G(I, M / rho) for the volume correction's volume fraction:
+// time step, node_signal_speed, and the volume correction's mean pressure), and P2G(I, M / rho)
+// for the volume correction's volume fraction:
 // GridFields::mass .. volume. For a perfect gas P M / rho = (gamma - 1) M e needs no division.
 // The time step's check of the particle states comes with it, since it reads them anyway: a
 // particle not surely valid adds to `in_doubt`.
@@ -246,13 +247,13 @@ struct AccelerateThenCarryMomentum {
 };
 
 // What step 10 interpolates at each particle, in one G2P-and-G2PD: GridFields::velocity_x ..
-// volume_fraction, of which it takes V-bar's values (the move, step 11), the remapped velocity's
-// gradient and the volume fraction's value (the volume correction).
+// overfill_pressure, of which it takes V-bar's values (the move, step 11), the remapped velocity's
+// gradient and the volume correction's pressure step.
 using MoveAndRemapVelocity = NodeColumns<5>;
 enum MoveAndRemapVelocityColumn : int {
   moving_velocity = 0,
   remapped_velocity = GridFields::remap_velocity_x - GridFields::velocity_x,
-  volume_fraction_at_particle = GridFields::volume_fraction - GridFields::velocity_x
+  overfill_pressure_at_particle = GridFields::overfill_pressure - GridFields::velocity_x
 };
 
 // Step 11's move, X' = X + dt V-bar, V-bar interpolated at the step-10 stencil; the walls, sides
@@ -269,7 +270,7 @@ struct AdvancePosition {
 
 // Sink of step 10: density, energy and artificial viscosity from div V (the pressure follows from
 // the density and the energy, perfect_gas_pressure, and is not stored), the density corrected
-// towards the volume fraction (numerics/volume_correction); the particle domain's stretches
+// by the volume correction's pressure step (numerics/volume_correction); the particle domain's stretches
 // (diagonal of the deformation gradient, used by GIMP) from dVx/dx and dVy/dy.
 struct UpdateThermodynamics {
   using writes_only_its_particle = std::true_type;  // (WritesOnlyItsParticle)
@@ -300,7 +301,7 @@ struct UpdateThermodynamics {
     specific_energy(p) = advanced_specific_energy(e, dt, pressure, q_of_work, rho, div_v);
     const real_t advanced = advanced_density(rho, dt, div_v);
     density(p) = volume_correction != 0
-                     ? volume_corrected_density(advanced, value[volume_fraction_at_particle],
+                     ? volume_corrected_density(advanced, pressure, value[overfill_pressure_at_particle],
                                                 acoustic_fraction(dt_over_cell_size, sound_speed))
                      : advanced;
     viscosity(p) = q;
