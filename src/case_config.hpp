@@ -173,8 +173,8 @@ struct NumericsConfig {
   // of 12-17 %; Sod and Toro's test 2 come closer to the exact solutions.
   bool pressure_relaxation = true;
   // Each particle's density is corrected towards the volume fraction of its nodes (the particles'
-  // volumes over the space they share) at the acoustic rate, as a pressure step shared by the
-  // nodes' particles (overfill_pressure_step, volume_corrected_density, gas_physics.hpp): scattered particles' volumes do not tile the space, their pressure forces do work that
+  // volumes over the space they share, volume_corrected_density, gas_physics.hpp) at the acoustic
+  // rate, less where the particle's pressure is already beyond its nodes' mean: scattered particles' volumes do not tile the space, their pressure forces do work that
   // makes the volumes grow (a free stream's particles held 1.5 % more volume than their space
   // after 3 tunnel lengths, a subsonic far-field tunnel 13 % with its pressure 15 % low). Not near
   // obstacles nor far-field sides (ObstacleGrid::node_gas_volume).

@@ -131,34 +131,32 @@ KOKKOS_INLINE_FUNCTION real_t relaxed_volume_ratio(real_t pressure, real_t mean_
   return 1 + (pressure - mean_pressure) * inverse_gamma_mean_pressure;
 }
 
-// The volume correction on a node: the pressure step (phi - 1) P that evens out its particles'
-// over- or under-fill, phi its volume fraction (node_volume_fraction) and P its particles'
-// volume-weighted mean pressure sum V p / sum V (from the sums pressure_volume and
-// particle_volume). 0 where phi is far from 1 (below 1/2: the gas does not fill the stencil, at a
-// free surface or near a vacuum; above 2) or the node holds no particle volume.
-KOKKOS_INLINE_FUNCTION real_t overfill_pressure_step(real_t volume_fraction, real_t pressure_volume,
-                                                     real_t particle_volume) {
-  if (!(volume_fraction > real_t(0.5) && volume_fraction < 2 && particle_volume > 0)) return 0;
-  return (volume_fraction - 1) * (pressure_volume / particle_volume);
-}
-
-// A particle's density corrected towards the space its volume shares: times 1 + rate dP / p, dP
-// the nodes' pressure step (overfill_pressure_step) interpolated at the particle, p its pressure,
-// rate = acoustic_fraction. For particles of one pressure that is 1 + rate (phi - 1): where their
-// volumes over-fill their space they are compressed, where they leave part of it empty expanded.
-// Where thin gas shares the nodes with dense gas, the soft, thin particles take most of it, as an
-// equal pressure step gives them, and the dense ones little: compressed by the same fraction as
-// the thin ones (the correction until 2026-12-03), dense particles were compressed again and
-// again, since their small volumes never brought phi down (densities of 1e10 behind an aerofoil).
-// Bounded as one pressure's is (-1/2 to 1: phi in (1/2, 2), rate at most 1). The specific energy
-// is kept, so the energy is conserved exactly (the pressure follows the density). Unchanged for a
-// pressure that is not positive, or a step that is not a number. (Selects, no branch: the
-// particle updates of a batch run as vector lanes.)
-KOKKOS_INLINE_FUNCTION real_t volume_corrected_density(real_t density, real_t pressure, real_t pressure_step,
-                                                       real_t rate) {
-  const real_t change = rate * pressure_step / pressure;
-  const real_t bounded = change > 1 ? real_t(1) : (change > real_t(-0.5) ? change : real_t(-0.5));
-  return (pressure > 0) & (change == change) ? density * (1 + bounded) : density;
+// A particle's density corrected towards the space its volume shares: with phi the volume
+// fraction at the particle (the nodes' sum of the particles' volumes over the gas space they
+// cover, interpolated), the density times 1 + rate (phi - 1) w, rate = acoustic_fraction. Where the
+// particles' volumes over-fill their space (phi > 1) they are compressed, where they leave part of
+// it empty expanded. w weighs the particle by its pressure p against its nodes' mean pressure P
+// (their particles' volume-weighted mean, interpolated), 1 for a particle at P:
+//  - compressed, w = P / p: the pressure step that takes up the over-fill is the same for all,
+//    and the soft, thin particles give the most volume for it. With the same fraction for all
+//    (the correction until 2026-12-03) a dense particle sharing its nodes with thin gas (behind an
+//    aerofoil) was compressed again and again, since its small volume never brought phi down:
+//    densities of 1e10, and at Mach 0.5 a negative one. A soft particle compressed goes towards P
+//    and takes less the next step; the change is at most a doubling.
+//  - expanded, w = min(1, p / P): no particle below its nodes' mean pressure expands at the full
+//    rate. (By the same pressure step the thin ones would expand the most, their pressure falling
+//    further from P at every step, towards a vacuum.)
+// The specific energy is kept, so the energy is conserved exactly (the pressure follows the
+// density). Left alone where phi is far from 1 (below 1/2: the gas does not fill the stencil, at a
+// free surface or near a vacuum; above 2), and where p or P is not positive.
+KOKKOS_INLINE_FUNCTION real_t volume_corrected_density(real_t density, real_t volume_fraction, real_t rate,
+                                                       real_t pressure, real_t mean_pressure) {
+  if (!(volume_fraction > real_t(0.5) && volume_fraction < 2)) return density;
+  const bool compressed = volume_fraction > 1, positive = (pressure > 0) & (mean_pressure > 0);
+  const real_t share = compressed ? mean_pressure / pressure : pressure / mean_pressure;
+  const real_t weight = positive ? (compressed | (share < 1) ? share : real_t(1)) : real_t(0);
+  const real_t change = rate * (volume_fraction - 1) * weight;
+  return density * (1 + (change < 1 ? change : real_t(1)));
 }
 
 }  // namespace mpmflow

@@ -123,7 +123,7 @@ struct GridFields {
     num_state_columns
   };
   // (In the order the kernels read them: the acceleration alone by G2P, V-bar, the remapped
-  // velocity and the volume correction's pressure step together by the G2P-and-G2PD of steps
+  // velocity, the volume fraction and the mean pressure together by the G2P-and-G2PD of steps
   // 10-11.)
   enum PerUnitMassColumn : int {
     acceleration_x = 0,  // force / mass (step 7)
@@ -132,8 +132,9 @@ struct GridFields {
     velocity_y,
     remap_velocity_x,    // remapped momentum / mass (step 10)
     remap_velocity_y,
-    overfill_pressure,   // the volume correction's pressure step (numerics/volume_correction,
-                         // overfill_pressure_step: not per unit mass, but read with the rest)
+    volume_fraction,     // volume over the gas volume the node's hat covers (numerics/volume_correction)
+    mean_pressure,       // sum_p phi_i P V / sum_p phi_i V (the volume correction; not per unit mass, but
+                         // read with the rest)
     num_per_unit_mass_columns
   };
   // The columns of the projection of the particles' state for grid output: mass and momentum

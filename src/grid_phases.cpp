@@ -67,16 +67,17 @@ void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, rea
       });
 }
 
-void compute_overfill_pressure(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area) {
+void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area) {
   const NodeFieldsView state = fields.state, per_unit_mass = fields.per_unit_mass;
   const RealView gas_volume = node_gas_volume;
   const real_t smallest = real_t(0.25) * cell_area;
   Kokkos::parallel_for(
-      "grid_overfill_pressure", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))),
+      "grid_volume_fraction", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))),
       KOKKOS_LAMBDA(const index_t i) {
         const real_t volume = state(i, GridFields::volume);
-        per_unit_mass(i, GridFields::overfill_pressure) = overfill_pressure_step(
-            node_volume_fraction(volume, gas_volume(i), smallest), state(i, GridFields::pressure_volume), volume);
+        per_unit_mass(i, GridFields::volume_fraction) = node_volume_fraction(volume, gas_volume(i), smallest);
+        per_unit_mass(i, GridFields::mean_pressure) =
+            volume > 0 ? state(i, GridFields::pressure_volume) / volume : real_t(0);
       });
 }
 

@@ -44,9 +44,10 @@ KOKKOS_INLINE_FUNCTION real_t node_volume_fraction(real_t particle_volume, real_
   return gas_volume < 0 && fraction > 1 ? real_t(1) : fraction;
 }
 
-// The volume correction's pressure step of every node (overfill_pressure_step, from its volume
-// fraction and its particles' mean pressure) into GridFields::overfill_pressure.
-void compute_overfill_pressure(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area);
+// The volume fraction of every node into GridFields::volume_fraction, and its particles'
+// volume-weighted mean pressure into GridFields::mean_pressure (0 without particle volume): what
+// the volume correction reads (volume_corrected_density).
+void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area);
 
 // Copies the momentum and force columns of `state` (before step 4) or the remapped momentum
 // (before step 9) of the nodes the boundary conditions may change into `before_conditions`.

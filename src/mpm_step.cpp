@@ -65,12 +65,12 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     if (energy_budget) keep_remap_before_conditions(grid);
     slab.grid_boundaries().apply_to_momentum(grid.state, GridFields::momentum_x, grid.state);
   }
-  {  // ... and mv / m on the nodes, for step 10, and the volume correction's pressure step, from the
-     // volume fraction phi = sum V / gas volume
+  {  // ... and mv / m on the nodes, for step 10, the volume fraction phi = sum V / gas volume and
+     // the mean pressure sum P V / sum V
     auto t = timers.scope(Phase::grid_remap_velocity);
     compute_remap_velocity(grid, mass_threshold, dt, settings.thermodynamics.energy_consistent);
     if (settings.thermodynamics.volume_correction)
-      compute_overfill_pressure(grid, slab.obstacles().node_gas_volume, slab.slab().cell_area());
+      compute_volume_fraction(grid, slab.obstacles().node_gas_volume, slab.slab().cell_area());
   }
   double work_of_conditions = 0;
   if (energy_budget) {

@@ -247,13 +247,14 @@ struct AccelerateThenCarryMomentum {
 };
 
 // What step 10 interpolates at each particle, in one G2P-and-G2PD: GridFields::velocity_x ..
-// overfill_pressure, of which it takes V-bar's values (the move, step 11), the remapped velocity's
-// gradient and the volume correction's pressure step.
-using MoveAndRemapVelocity = NodeColumns<5>;
+// mean_pressure, of which it takes V-bar's values (the move, step 11), the remapped velocity's
+// gradient and the volume fraction's and mean pressure's values (the volume correction).
+using MoveAndRemapVelocity = NodeColumns<6>;
 enum MoveAndRemapVelocityColumn : int {
   moving_velocity = 0,
   remapped_velocity = GridFields::remap_velocity_x - GridFields::velocity_x,
-  overfill_pressure_at_particle = GridFields::overfill_pressure - GridFields::velocity_x
+  volume_fraction_at_particle = GridFields::volume_fraction - GridFields::velocity_x,
+  mean_pressure_at_particle = GridFields::mean_pressure - GridFields::velocity_x
 };
 
 // Step 11's move, X' = X + dt V-bar, V-bar interpolated at the step-10 stencil; the walls, sides
@@ -270,7 +271,7 @@ struct AdvancePosition {
 
 // Sink of step 10: density, energy and artificial viscosity from div V (the pressure follows from
 // the density and the energy, perfect_gas_pressure, and is not stored), the density corrected
-// by the volume correction's pressure step (numerics/volume_correction); the particle domain's stretches
+// towards the volume fraction (numerics/volume_correction); the particle domain's stretches
 // (diagonal of the deformation gradient, used by GIMP) from dVx/dx and dVy/dy.
 struct UpdateThermodynamics {
   using writes_only_its_particle = std::true_type;  // (WritesOnlyItsParticle)
@@ -301,8 +302,9 @@ struct UpdateThermodynamics {
     specific_energy(p) = advanced_specific_energy(e, dt, pressure, q_of_work, rho, div_v);
     const real_t advanced = advanced_density(rho, dt, div_v);
     density(p) = volume_correction != 0
-                     ? volume_corrected_density(advanced, pressure, value[overfill_pressure_at_particle],
-                                                acoustic_fraction(dt_over_cell_size, sound_speed))
+                     ? volume_corrected_density(advanced, value[volume_fraction_at_particle],
+                                                acoustic_fraction(dt_over_cell_size, sound_speed), pressure,
+                                                value[mean_pressure_at_particle])
                      : advanced;
     viscosity(p) = q;
   }
@@ -317,7 +319,7 @@ struct StretchAndCellDivergence {
   IndexView cell;
   Access cell_sums;
   real_t dt;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[5], const real_t (&gradient)[5][2]) const {
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[6], const real_t (&gradient)[6][2]) const {
     advance(p, value);
     const real_t dvx_dx = gradient[remapped_velocity][0], dvy_dy = gradient[remapped_velocity + 1][1];
     stretch_x(p) *= 1 + dt * dvx_dx;

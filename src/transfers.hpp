@@ -24,7 +24,7 @@ struct ThermodynamicConstants {
   // compute_remap_velocity); the new Q only enters the next step's forces.
   bool energy_consistent = true;
   // numerics/volume_correction: each particle's density corrected towards the volume fraction of
-  // the nodes around it, by the nodes' pressure step (volume_corrected_density).
+  // the nodes around it (volume_corrected_density).
   bool volume_correction = true;
 };
 
@@ -54,8 +54,7 @@ class TransferKernels {
   // same stencil, the move X' = X + dt V-bar (the walls, obstacles and sides come after). With
   // numerics/cell_averaged_strain, the volume-weighted mean divergence of the particle's cell
   // changes its density and energy, and that cell's mean P + Q of the force does the work. With
-  // numerics/volume_correction, the density is corrected towards the nodes' volume fraction (by
-  // their pressure step, GridFields::overfill_pressure).
+  // numerics/volume_correction, the density is corrected towards the nodes' volume fraction.
   virtual void g2pd_particle_update(const ParticleState& particles, const ThermodynamicConstants& constants,
                                     real_t dt) = 0;
   // Whether the case has numerics/pressure_relaxation: then relax_pressures_and_locate, after step

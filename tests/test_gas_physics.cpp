@@ -4,7 +4,6 @@
 // particles (TransferKernels::relax_pressures_and_locate).
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <cmath>
 #include <map>
 #include <string>
@@ -74,48 +73,51 @@ TEST(SubCellConsistency, RelaxedVolumeSharesKeepTheCellsVolumeAndFollowTheIsentr
   EXPECT_NEAR(relaxed_volume_share(volume[0], 1.02, 1.0), exact, 1e-4 * exact);
 }
 
-// For particles of one pressure p the node's step is (phi - 1) p, and the density goes by
-// 1 + rate (phi - 1).
-double corrected_at_one_pressure(double rho, double p, double phi, double rate) {
-  const double volume = 2.0;  // the node's particle volume, and its sum V p
-  return volume_corrected_density(rho, p, overfill_pressure_step(phi, p * volume, volume), rate);
-}
-
 TEST(SubCellConsistency, VolumeCorrectionCompressesOverfilledAndExpandsUnderfilledSpace) {
-  const double rho = 1.4, p = 1.0, rate = 0.1;
-  EXPECT_DOUBLE_EQ(corrected_at_one_pressure(rho, p, 1.0, rate), rho);
-  EXPECT_NEAR(corrected_at_one_pressure(rho, p, 1.1, rate), rho * 1.01, 1e-12);  // over-filled: denser
-  EXPECT_NEAR(corrected_at_one_pressure(rho, p, 0.9, rate), rho * 0.99, 1e-12);  // part empty: lighter
-  EXPECT_NEAR(corrected_at_one_pressure(rho, 7.0, 1.1, rate), rho * 1.01, 1e-12);  // whatever the pressure
+  const double rho = 1.4, rate = 0.1, p = 1.0;  // a particle at its nodes' mean pressure
+  EXPECT_DOUBLE_EQ(volume_corrected_density(rho, 1.0, rate, p, p), rho);
+  EXPECT_NEAR(volume_corrected_density(rho, 1.1, rate, p, p), rho * 1.01, 1e-12);  // over-filled: denser
+  EXPECT_NEAR(volume_corrected_density(rho, 0.9, rate, p, p), rho * 0.99, 1e-12);  // part empty: lighter
   // Where the gas does not fill the stencil (a free surface, a near-vacuum) or phi is wild: unchanged.
-  EXPECT_DOUBLE_EQ(corrected_at_one_pressure(rho, p, 0.4, rate), rho);
-  EXPECT_DOUBLE_EQ(corrected_at_one_pressure(rho, p, 2.5, rate), rho);
-  EXPECT_DOUBLE_EQ(corrected_at_one_pressure(rho, p, std::nan(""), rate), rho);
-  EXPECT_DOUBLE_EQ(overfill_pressure_step(1.1, 1.0, 0.0), 0.0);  // a node without particle volume
-  // A pressure that is not positive, a step that is not a number: unchanged.
-  EXPECT_DOUBLE_EQ(volume_corrected_density(rho, 0.0, 0.1, rate), rho);
-  EXPECT_DOUBLE_EQ(volume_corrected_density(rho, p, std::nan(""), rate), rho);
+  EXPECT_DOUBLE_EQ(volume_corrected_density(rho, 0.4, rate, p, p), rho);
+  EXPECT_DOUBLE_EQ(volume_corrected_density(rho, 2.5, rate, p, p), rho);
+  EXPECT_DOUBLE_EQ(volume_corrected_density(rho, std::nan(""), rate, p, p), rho);
+  // A pressure that is not positive: unchanged.
+  EXPECT_DOUBLE_EQ(volume_corrected_density(rho, 1.1, rate, 0.0, p), rho);
+  EXPECT_DOUBLE_EQ(volume_corrected_density(rho, 1.1, rate, -1.0, p), rho);
 }
 
-// Dense gas sharing an over-filled node with thin gas at a fraction of its pressure: one pressure
-// step for all, so the thin, soft particles are compressed far more than the dense ones (the same
-// fraction for all compressed dense particles again and again: densities of 1e10 behind the
-// aerofoil). For one node's particles: the thin one's relative change p_dense / p_thin times the
-// dense one's; and within the bounds of a uniform gas's (at most doubled, at least halved).
-TEST(SubCellConsistency, VolumeCorrectionCompressesTheSoftParticlesOfAMixedNodeMost) {
-  const double rate = 0.2;
-  const double thin_volume = 8, thin_pressure = 0.05, dense_volume = 0.1, dense_pressure = 20;
-  const double volume = thin_volume + dense_volume, pressure_volume = thin_volume * thin_pressure +
-                                                                     dense_volume * dense_pressure;
-  const double step = overfill_pressure_step(1.5, pressure_volume, volume);
-  const double dense_change = volume_corrected_density(1.0, dense_pressure, step, rate) - 1;
-  const double thin_change = volume_corrected_density(1.0, thin_pressure, step, rate) - 1;
-  EXPECT_GT(dense_change, 0);
-  EXPECT_LT(dense_change, 0.002);  // (the old correction: rate (phi - 1) = 0.1)
-  EXPECT_NEAR(thin_change, std::min(1.0, dense_change * dense_pressure / thin_pressure), 1e-12);
-  EXPECT_GT(thin_change, 0.1);
-  EXPECT_LE(thin_change, 1.0);
-  EXPECT_GE(volume_corrected_density(1.0, thin_pressure, -step, rate), 0.5);  // under-filled: at most halved
+// A particle weighed by its pressure against its nodes' mean. Compressed: one 20 times above the
+// mean by a twentieth of the full rate, one at a tenth of it by ten times the full rate, at most a
+// doubling (compressed at the full rate, dense particles in thin gas behind the aerofoil were
+// compressed again and again: densities of 1e10). Expanded: one at a tenth of the mean by a tenth
+// of the full rate, one above it by the full rate.
+TEST(SubCellConsistency, VolumeCorrectionTakesTheOverfillFromTheSoftParticlesAndExpandsNoneBelowTheMeanFully) {
+  const double rho = 1.4, rate = 0.1, mean = 1.0;
+  EXPECT_NEAR(volume_corrected_density(rho, 1.5, rate, 20.0, mean), rho * (1 + 0.05 / 20), 1e-12);
+  EXPECT_NEAR(volume_corrected_density(rho, 1.5, rate, 0.1, mean), rho * 1.5, 1e-12);
+  EXPECT_NEAR(volume_corrected_density(rho, 1.5, rate, 0.001, mean), rho * 2, 1e-12);  // at most doubled
+  EXPECT_NEAR(volume_corrected_density(rho, 0.6, rate, 0.1, mean), rho * (1 - 0.04 * 0.1), 1e-12);
+  EXPECT_NEAR(volume_corrected_density(rho, 0.6, rate, 20.0, mean), rho * 0.96, 1e-12);
+  // Repeated over many steps at phi = 1.5 (the dense particle's volume does not bring phi down),
+  // its density grows as its pressure over the mean allows, not geometrically.
+  double dense = rho, pressure = 20.0;
+  const double energy = pressure / (0.4 * dense);
+  for (int step = 0; step < 200; ++step) {
+    dense = volume_corrected_density(dense, 1.5, rate, pressure, mean);
+    pressure = 0.4 * dense * energy;
+  }
+  EXPECT_LT(dense, 1.5 * rho);  // (at the full rate, 1.05^200 = 1.7e4 times)
+  // And a thin particle at a tenth of the mean in an under-filled node thins out slowly, not
+  // geometrically at the full rate (0.96^200 = 2.8e-4 times).
+  double thin = 0.14;
+  pressure = 0.1;
+  const double thin_energy = pressure / (0.4 * thin);
+  for (int step = 0; step < 200; ++step) {
+    thin = volume_corrected_density(thin, 0.6, rate, pressure, mean);
+    pressure = 0.4 * thin * thin_energy;
+  }
+  EXPECT_GT(thin, 0.14 / 2);
 }
 
 TEST(SubCellConsistency, NodeVolumeFractionIsNeutralWhereTheSpaceIsUnknownAndOneSidedNextToABody) {
