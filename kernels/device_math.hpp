@@ -14,6 +14,14 @@ KOKKOS_INLINE_FUNCTION real_t square_root(real_t x) {
 #endif
 }
 
+KOKKOS_INLINE_FUNCTION real_t absolute_value(real_t x) {
+#if KOKKOS_VERSION >= 40000
+  return Kokkos::fabs(x);
+#else
+  return Kokkos::Experimental::fabs(x);
+#endif
+}
+
 KOKKOS_INLINE_FUNCTION real_t power(real_t x, real_t y) {
 #if KOKKOS_VERSION >= 40000
   return Kokkos::pow(x, y);
