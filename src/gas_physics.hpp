@@ -152,13 +152,13 @@ KOKKOS_INLINE_FUNCTION real_t relaxed_volume_ratio(real_t pressure, real_t mean_
 KOKKOS_INLINE_FUNCTION real_t volume_corrected_density(real_t density, real_t volume_fraction, real_t rate,
                                                        real_t pressure, real_t mean_pressure) {
   if (!(volume_fraction > real_t(0.5) && volume_fraction < 2 && pressure > 0 && mean_pressure > 0)) return density;
-  // (Both divisions made, then one taken, and the bounds as min(a, 1) = (a + 1 - |a - 1|) / 2, not
-  // selects: GCC vectorises no loop in which a branch guards a division, and took few selects more
-  // here before it left the particle updates of a batch, vector lanes otherwise, scalar.)
+  // (Both divisions made, then one taken, and the bounds as at_most_one, not selects: GCC
+  // vectorises no loop in which a branch guards a division, and took few selects more here before
+  // it left the particle updates of a batch, vector lanes otherwise, scalar.)
   const real_t down = mean_pressure / pressure, up = pressure / mean_pressure;
-  const real_t share = volume_fraction > 1 ? down : real_t(0.5) * (up + 1 - absolute_value(up - 1));
+  const real_t share = volume_fraction > 1 ? down : at_most_one(up);
   const real_t change = rate * (volume_fraction - 1) * share;
-  return density * (1 + real_t(0.5) * (change + 1 - absolute_value(change - 1)));
+  return density * (1 + at_most_one(change));
 }
 
 }  // namespace mpmflow
