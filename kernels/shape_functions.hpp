@@ -111,8 +111,8 @@ KOKKOS_FORCEINLINE_FUNCTION void load_lanes(const Particles& particle, int count
 // ... where the batch is whole and its particles consecutive (most of the sorted walks' batches): a
 // plain copy, in vectors. (The loop above, which its exit keeps scalar, took 6 instructions a lane
 // for each of the 3 to 5 fields a batch loads: twelve runs of the cylinder at 448 x 224 cells, median
-// kernel times P2G 20.9 -> 19.1 ms a step, G2P + remap 15.3 -> 13.4, G2PD 15.4 -> 13.4; README,
-// Benchmarks.)
+// kernel times P2G 20.9 -> 19.1 ms a step, G2P + remap 15.3 -> 13.4, G2PD 15.4 -> 13.4;
+// docs/performance_history.md.)
 template <int L, class T>
 KOKKOS_FORCEINLINE_FUNCTION void load_lanes(const ConsecutiveParticles& particle, int count, const T* source,
                                             T (&dest)[L]) {

@@ -440,8 +440,8 @@ constexpr TileExtent team_tile{64, 4};
 //  - Rectangles (walk_rectangle_for): the largest of walk_tiles_largest_first that gives at least
 //    min_walk_tiles tiles, so that the threads have enough to share. A sorted P2G on one thread,
 //    the cylinder at 448 x 224 reordered every step, took 40-42 ms a step with tiles of 64 x 4
-//    cells, 35-36 with 128 x 16, and 33-37 with all the small tiles in one pass in order (README,
-//    Benchmarks).
+//    cells, 35-36 with 128 x 16, and 33-37 with all the small tiles in one pass in order (docs/
+//    performance_history.md).
 //  - Where the run reorders its particles by cell, strips of whole rows of cells,
 //    walk_strip_heights rows tall, where they give as many tiles a pass as the rectangles (or
 //    enough_walk_tiles_a_pass): a strip is one stretch of the cell order, so that once reordered
@@ -807,7 +807,7 @@ void walk_window_pass(const char* label, const Shape& shape, const ParticleLocat
   // A node's W columns are one vector (64 bytes, a cache line, for 8 doubles): the window starts on
   // a vector's boundary, so that no node's vector straddles two lines. (get_shmem aligns to 8 bytes
   // only; the OpenMP scratch started 48 bytes past a line here, every node access a split one:
-  // aligned, P2G and G2PD took 7 % less, README, Benchmarks.)
+  // aligned, P2G and G2PD took 7 % less, docs/performance_history.md.)
   constexpr size_t window_alignment = W * sizeof(real_t);
   policy.set_scratch_size(0, Kokkos::PerTeam(window_bytes + window_alignment));
   Kokkos::parallel_for(label, policy, KOKKOS_LAMBDA(const Team& team) {
@@ -821,7 +821,7 @@ void walk_window_pass(const char* label, const Shape& shape, const ParticleLocat
       // The row's nodes zeroed whole (one contiguous stretch), then the columns read written over
       // their first ones. Zeroing only the columns past `read` made GCC call memset once a node for
       // those few bytes (24 for G2PD's window): with the copies, 5.8-5.9 % of a run's samples against
-      // 3.8-4.6 % now (README, Benchmarks, "The windows' fill").
+      // 3.8-4.6 % now (docs/performance_history.md, "The windows' fill").
       for (index_t i = reach.i_begin; i < reach.i_end; ++i)
         for (int c = 0; c < W; ++c) window.node(i + nodes_x * j)[c] = 0;
       for (int c = 0; c < read; ++c)

@@ -146,8 +146,8 @@ struct DecompositionConfig {
 struct NumericsConfig {
   // Reorder particles by cell every N steps; 0: never. Particles never reordered drift out of cell
   // order, and the transfer kernels then reach their nodes all over: the cylinder at 448 x 224
-  // cells ran 14-25 % slower never reordered than reordered every 20 steps (README, Benchmarks),
-  // the sort costing about one P2G every 20 steps.
+  // cells ran 14-25 % slower never reordered than reordered every 20 steps
+  // (docs/performance_history.md), the sort costing about one P2G every 20 steps.
   int reorder_interval = 20;
   P2GStrategy p2g = P2GStrategy::automatic;
   ShapeFunction shape_function = ShapeFunction::gimp;

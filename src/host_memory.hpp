@@ -5,7 +5,7 @@
 // on first touch and the kernel zeroes it. A reorder gathers every particle field into new storage
 // and frees the old (permuted_particle_field), so with fields over 32 MB (4.2e6 particles) every
 // reorder faulted all of them in anew: at 4.7e6 particles 171-177 ms a reorder, 61-65 ms with the
-// freed blocks reused (README, Benchmarks, "Reused host memory"). Served from the
+// freed blocks reused (docs/performance_history.md, "Reused host memory"). Served from the
 // heap instead, a freed block is reused by the next allocation that fits, its pages already in
 // place; the heap is not trimmed back, so the process keeps the memory it has used at its peak (a
 // solver's use comes back to its peak every step or every reorder).

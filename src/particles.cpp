@@ -15,7 +15,8 @@ namespace {
 // `field` moved to new storage of `capacity` entries: its first `count` copied, the rest unset
 // (beyond the particle count, as a reorder leaves them). Kokkos::resize zeroed the whole new View,
 // then copied the old one's whole extent, every new page written twice: the 12 fields of 881,000
-// particles growing by an eighth took 36-43 ms that way, 23-27 ms this way (README, Benchmarks).
+// particles growing by an eighth took 36-43 ms that way, 23-27 ms this way
+// (docs/performance_history.md).
 template <class ViewType>
 void move_to_larger_storage(ViewType& field, index_t capacity, index_t count) {
   const ViewType grown(Kokkos::view_alloc(Kokkos::WithoutInitializing, field.label()), capacity);

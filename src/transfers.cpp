@@ -696,9 +696,9 @@ std::unique_ptr<TransferKernels> make_transfer_kernels(const CaseConfig& config,
   }
   // Where the grid lives in host memory (CPUs): sorted, wherever its walk keeps the threads busy,
   // since it adds each tile's nodes in a window in cache (walk_tiles_staged) and keeps no copies;
-  // faster than duplicated, and deterministic (README, Deterministic P2G and Benchmarks). Else
-  // Kokkos' own rule: duplicated copies on CPUs (few threads, cheap copies), atomics on GPUs
-  // (thousands of threads, copies unaffordable).
+  // faster than duplicated, and deterministic (README, Deterministic P2G;
+  // docs/performance_history.md). Else Kokkos' own rule: duplicated copies on CPUs (few threads,
+  // cheap copies), atomics on GPUs (thousands of threads, copies unaffordable).
   if (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
     if (walk_keeps_threads_busy(geometry.cells_x(), geometry.cells_y(), particle_order_of(config.numerics),
                                 ExecutionSpace().concurrency()))

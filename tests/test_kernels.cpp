@@ -938,7 +938,7 @@ struct CountsWindowAlignment {
 };
 // The CPU walks' windows start on a node vector's boundary (Kokkos' team scratch is aligned to 8
 // bytes only: with it the OpenMP windows began 48 bytes past a cache line, and P2G and G2PD took
-// 7 % longer; README, Benchmarks).
+// 7 % longer; docs/performance_history.md).
 template <class Memory>
 void expect_windows_start_on_a_node_vectors_boundary() {
   if constexpr (std::is_same<Memory, Kokkos::HostSpace>::value) {
