@@ -440,8 +440,8 @@ constexpr TileExtent team_tile{64, 4};
 //  - Rectangles (walk_rectangle_for): the largest of walk_tiles_largest_first that gives at least
 //    min_walk_tiles tiles, so that the threads have enough to share. A sorted P2G on one thread,
 //    the cylinder at 448 x 224 reordered every step, took 40-42 ms a step with tiles of 64 x 4
-//    cells, 35-36 with 128 x 16, and 33-37 with all the small tiles in one pass in order (docs/
-//    performance_history.md).
+//    cells, 35-36 with 128 x 16, and 33-37 with all the small tiles in one pass in order
+//    (docs/performance_history.md).
 //  - Where the run reorders its particles by cell, strips of whole rows of cells,
 //    walk_strip_heights rows tall, where they give as many tiles a pass as the rectangles (or
 //    enough_walk_tiles_a_pass): a strip is one stretch of the cell order, so that once reordered
