@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A profile-guided build (GCC) of the openmp preset, into build/openmp-profiled: the GIMP step
-# about 5 % faster on this project's machine (README, Benchmarks). Sets up (scripts/setup.sh),
+# about 4 % faster on this project's machine (README, Benchmarks). Sets up (scripts/setup.sh),
 # builds the instrumented core (preset openmp-profile-training), runs short cases with it to count
 # where the time goes (build/profile), then builds every target of the preset openmp-profiled with
 # those counts. Run it again after changing the sources: GCC ignores, with a warning, the counts
