@@ -20,7 +20,7 @@ profile_dir="$project_dir/build/profile"
 rm -rf "$profile_dir" build/profile-training-output
 # The training: the default shape and its paths (a bow shock on an obstacle, open sides,
 # splitting and merging, reordering), the paper's linear shape, walls and a blast. One thread:
-# the counts are the same for any thread count, and atomic counters shared by threads are slow.
+# the counters are updated atomically, which is slow where threads share them.
 trained=build/openmp-profile-training/bin/mpmflow
 train() {
   local name=$1
