@@ -28,24 +28,27 @@ function(mpmflow_profile_guided target generated_sources)
                                              -fprofile-update=prefer-atomic ${strip_build_folder})
     target_link_options(${target} PUBLIC -fprofile-generate)
   else()
-    file(GLOB profile_files "${MPMFLOW_PROFILE_USE}/*${target}.dir*.gcda")
-    if(NOT profile_files)
-      message(FATAL_ERROR "mpmflow: MPMFLOW_PROFILE_USE=${MPMFLOW_PROFILE_USE}: expected the ${target} profile "
-                          "files (*${target}.dir*.gcda) that runs of a build configured with "
-                          "MPMFLOW_PROFILE_GENERATE write there; none found. scripts/build_profiled.sh makes them.")
-    endif()
-    message(STATUS "mpmflow: ${target} optimised with the profile in ${MPMFLOW_PROFILE_USE}")
-    # Each source compiled again when its profile changes (a new training), not only when it does:
-    # its profile file is named after its object, the build folder stripped and '/' as '#'.
+    # A source's profile file is named after its object, the build folder stripped and '/' as '#'.
+    # Each source depends on its own, so that a new training compiles it again, not only a change
+    # of the source.
     file(RELATIVE_PATH target_folder ${CMAKE_BINARY_DIR} ${CMAKE_CURRENT_BINARY_DIR})
     string(REPLACE "/" "#" profile_prefix "${target_folder}/CMakeFiles/${target}.dir")
     get_target_property(sources ${target} SOURCES)
+    set(profiled_sources 0)
     foreach(source IN LISTS sources)
-      if(EXISTS "${MPMFLOW_PROFILE_USE}/${profile_prefix}#${source}.gcda")
-        set_property(SOURCE ${source} TARGET_DIRECTORY ${target} APPEND PROPERTY OBJECT_DEPENDS
-                     "${MPMFLOW_PROFILE_USE}/${profile_prefix}#${source}.gcda")
+      set(profile_file "${MPMFLOW_PROFILE_USE}/${profile_prefix}#${source}.gcda")
+      if(EXISTS "${profile_file}")
+        set_property(SOURCE ${source} TARGET_DIRECTORY ${target} APPEND PROPERTY OBJECT_DEPENDS "${profile_file}")
+        math(EXPR profiled_sources "${profiled_sources} + 1")
       endif()
     endforeach()
+    if(profiled_sources EQUAL 0)
+      message(FATAL_ERROR "mpmflow: MPMFLOW_PROFILE_USE=${MPMFLOW_PROFILE_USE}: expected the ${target} profile "
+                          "files (${profile_prefix}#SOURCE.gcda) that runs of a build configured with "
+                          "MPMFLOW_PROFILE_GENERATE write there; none found. scripts/build_profiled.sh makes them.")
+    endif()
+    message(STATUS "mpmflow: ${target} optimised with the profile in ${MPMFLOW_PROFILE_USE} "
+                   "(${profiled_sources} sources)")
     # -fprofile-partial-training: code the training did not run (other shapes, P2G strategies,
     # back-ends' paths) is optimised as without a profile, not for size as never-run code.
     # -Wno-error=coverage-mismatch: sources edited since the training still build (GCC warns that
@@ -53,10 +56,10 @@ function(mpmflow_profile_guided target generated_sources)
     # scripts/build_profiled.sh again to train anew.
     target_compile_options(${target} PRIVATE -fprofile-use=${MPMFLOW_PROFILE_USE} -fprofile-partial-training
                                              -Wno-error=coverage-mismatch ${strip_build_folder})
+    # The generated sources (the git commit) lie in the build folder, so their functions' source
+    # locations differ between the two builds: GCC would reject their counts as out of date. Their
+    # counts are worth nothing; the mismatch is not reported for them.
+    set_source_files_properties(${generated_sources} TARGET_DIRECTORY ${target} PROPERTIES COMPILE_OPTIONS
+                                -Wno-coverage-mismatch)
   endif()
-  # The generated sources (the git commit) lie in the build folder, so their functions' source
-  # locations differ between the two builds: GCC would reject their counts as out of date. Their
-  # counts are worth nothing; the mismatch is not reported for them.
-  set_source_files_properties(${generated_sources} TARGET_DIRECTORY ${target} PROPERTIES COMPILE_OPTIONS
-                              -Wno-coverage-mismatch)
 endfunction()

@@ -9,11 +9,7 @@
 set -euo pipefail
 project_dir=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$project_dir"
-jobs=$(nproc 2>/dev/null || echo 2)
-read -r -a kokkos_args <<<"$(bash scripts/setup.sh | tail -n 1)"
-
-cmake --preset openmp-profile-training "${kokkos_args[@]}" >/dev/null
-cmake --build --preset openmp-profile-training -j "$jobs" --target mpmflow
+bash scripts/build.sh openmp-profile-training
 
 # A fresh profile: the instrumented runs add their counts to the files they find.
 profile_dir="$project_dir/build/profile"
@@ -35,8 +31,7 @@ train cylinder cases/cylinder_mach3.json --set time/end=0.05
 train cylinder_linear cases/cylinder_mach3.json --set time/end=0.05 --set numerics/shape_function=linear
 train step cases/step_mach3.json --set time/end=0.15
 train sedov cases/sedov.json --set time/end=0.3
-ls "$profile_dir"/*.gcda >/dev/null
 
-cmake --preset openmp-profiled "${kokkos_args[@]}" >/dev/null
-cmake --build --preset openmp-profiled -j "$jobs"
+# (Configuring stops, naming the folder, where the training left no profile of the core.)
+bash scripts/build.sh openmp-profiled
 echo "Built build/openmp-profiled (profile: $profile_dir); tests: ctest --preset openmp-profiled"
