@@ -571,7 +571,7 @@ TYPED_TEST(TransferKernels, P2GAgreesWithTheDuplicatedScatterView) {
       Kokkos::HostSpace(), run_p2g<typename TypeParam::Duplication, false>(shape, d, 2, f));
   auto reference = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), run_p2g<Dup, false>(shape, d, 2, f));
   double largest = 0;
-  for (int i = 0; i < g.num_nodes(); ++i) largest = std::max(largest, std::fabs(reference(i, 1)));
+  for (int i = 0; i < g.num_nodes(); ++i) largest = std::max<double>(largest, std::fabs(reference(i, 1)));
   ASSERT_GT(largest, 0);
   for (int i = 0; i < g.num_nodes(); ++i)
     for (int c = 0; c < 2; ++c) EXPECT_NEAR(mine(i, c), reference(i, c), 1e-13 * largest) << "node " << i;
@@ -632,7 +632,7 @@ TYPED_TEST(TransferKernels, FusedG2PThenP2GEqualsTheTwoKernels) {
   auto sn = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), separate);
   auto fn = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fused);
   double largest = 0;
-  for (int i = 0; i < g.num_nodes(); ++i) largest = std::max(largest, std::fabs(sn(i, 0)));
+  for (int i = 0; i < g.num_nodes(); ++i) largest = std::max<double>(largest, std::fabs(sn(i, 0)));
   ASSERT_GT(largest, 0);
   for (int i = 0; i < g.num_nodes(); ++i) EXPECT_NEAR(fn(i, 0), sn(i, 0), 1e-13 * largest) << "node " << i;
 }
@@ -829,7 +829,7 @@ void expect_coloured_runs_match_the_reference(const GridGeometry& grid) {
   auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
   for (int k = 0; k < 2; ++k) {
     double largest = 0;
-    for (int i = 0; i < g.num_nodes(); ++i) largest = std::max(largest, std::fabs(r(i, k)));
+    for (int i = 0; i < g.num_nodes(); ++i) largest = std::max<double>(largest, std::fabs(r(i, k)));
     ASSERT_GT(largest, 0);
     for (int i = 0; i < g.num_nodes(); ++i)
       EXPECT_NEAR(c(i, k), r(i, k), 1e-13 * largest) << "node " << i << ", column " << k;
@@ -863,7 +863,7 @@ void expect_node_columns_match(const NodeFieldsView& actual, const NodeFieldsVie
   ASSERT_EQ(a.extent(1), r.extent(1));
   for (int k = 0; k < static_cast<int>(r.extent(1)); ++k) {
     double largest = 0;
-    for (size_t i = 0; i < r.extent(0); ++i) largest = std::max(largest, std::fabs(r(i, k)));
+    for (size_t i = 0; i < r.extent(0); ++i) largest = std::max<double>(largest, std::fabs(r(i, k)));
     if (written(k)) ASSERT_GT(largest, 0) << "column " << k;
     for (size_t i = 0; i < r.extent(0); ++i) {
       if (written(k))
@@ -1023,7 +1023,7 @@ void expect_windowed_g2p_and_g2pd_matches_the_reference(const GridGeometry& grid
   auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
   for (int k = 0; k < 3 * N; ++k) {
     double largest = 0;
-    for (index_t p = 0; p < d.count; ++p) largest = std::max(largest, std::fabs(r(p, k)));
+    for (index_t p = 0; p < d.count; ++p) largest = std::max<double>(largest, std::fabs(r(p, k)));
     ASSERT_GT(largest, 0) << "column " << k;
     for (index_t p = 0; p < d.count; ++p)
       ASSERT_NEAR(w(p, k), r(p, k), 1e-13 * largest) << "particle " << p << ", column " << k;

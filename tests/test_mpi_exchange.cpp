@@ -109,8 +109,8 @@ real_t made_x(const CaseConfig& config, particle_id_t id, const SlabDecompositio
   if (near) {
     const double h = (domain.x_max - domain.x_min) / domain.cells_x;
     const int r = static_cast<int>(id / 1000);
-    low = std::max(domain.x_min, domain.x_min + h * (near->begin(r) - 0.5));
-    high = std::min(domain.x_max, domain.x_min + h * (near->end(r) + 0.5));
+    low = std::max<double>(domain.x_min, domain.x_min + h * (near->begin(r) - 0.5));
+    high = std::min<double>(domain.x_max, domain.x_min + h * (near->end(r) + 0.5));
   }
   return real_t(low + (high - low) * counter_uniform(7, id, 0, 0));
 }

@@ -50,13 +50,20 @@ void disturb(ParticleState& pt, index_t k, real_t vx, real_t mass_factor) {
 // time step's check (is_valid_gas_state) rejects, over ordinary, broken and extreme values; it
 // passes the ordinary ones.
 TEST(TimeStep, ASurelyValidStateIsValid) {
-  const real_t gamma = 1.4, inf = std::numeric_limits<real_t>::infinity(), nan = std::nan("");
-  const std::vector<real_t> values = {0, 1, -1, 1e-300, 1e150, 1e155, 1e300, -1e300, inf, -inf, nan};
+  using limits = std::numeric_limits<real_t>;
+  const real_t gamma = 1.4, inf = limits::infinity(), nan = limits::quiet_NaN();
+  // The extremes in terms of real_t's range (in double: about 2e-300, 1e150, 1e155 and 2e300): a
+  // tiny value, one whose square fits, one whose square overflows, and one near the largest.
+  const real_t root_of_largest = std::sqrt(limits::max());
+  const real_t tiny = real_t(1e8) * limits::min(), square_fits = root_of_largest / real_t(1e4),
+               square_overflows = root_of_largest * real_t(7.5), near_largest = limits::max() / real_t(1e8);
+  const std::vector<real_t> values = {0,    1, -1, tiny, square_fits, square_overflows, near_largest, -near_largest,
+                                      inf, -inf, nan};
   long surely = 0;
   for (real_t rho : values)
     for (real_t e : values)
       for (real_t vx : values)
-        for (real_t vy : {real_t(0), real_t(2), real_t(1e200), nan}) {
+        for (real_t vy : {real_t(0), real_t(2), square_overflows, nan}) {
           if (!surely_valid_gas_state(gamma, rho, e, vx, vy)) continue;
           ++surely;
           const real_t p = perfect_gas_pressure(gamma, rho, e);
