@@ -1,6 +1,7 @@
 #pragma once
-// BLAS-1 on particle Views: Kokkos Kernels' KokkosBlas when the build has it (the default), else
-// the same operations as plain Kokkos reductions, so a minimal GPU build needs Kokkos alone.
+// BLAS-1 on particle Views: Kokkos Kernels' KokkosBlas when the build has it (the default) and,
+// for the sums, the Views hold doubles (below); else the same operations as plain Kokkos
+// reductions, so a minimal GPU build needs Kokkos alone.
 #include "kernels/types.hpp"
 
 #include <type_traits>
