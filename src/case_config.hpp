@@ -68,9 +68,11 @@ struct PhysicsConfig {
   real_t viscosity_linear = 1;     // c1, Landshoff
 };
 
+// In double whatever real_t is, as the run's clock is (Simulation): in a single-precision build the
+// outputs then land at the times the case asks for, not at float(end) k / snapshots.
 struct TimeConfig {
-  real_t end_time = 0;
-  real_t cfl = 0.5;
+  double end_time = 0;
+  double cfl = 0.5;
   long max_steps = 0;  // 0: no limit
 };
 

@@ -38,7 +38,7 @@ namespace fs = std::filesystem;
 
 // ---- Signed distance ------------------------------------------------------------------------------
 
-ObstacleConfig square_obstacle(double lo, double hi) {
+ObstacleConfig square_obstacle(real_t lo, real_t hi) {
   ObstacleConfig o;
   o.shape = ObstacleShape::rectangle;
   o.vertices_x = {lo, hi, hi, lo};
