@@ -57,7 +57,7 @@ TEST(TimeStep, ASurelyValidStateIsValid) {
   const real_t root_of_largest = std::sqrt(limits::max());
   const real_t tiny = real_t(1e8) * limits::min(), square_fits = root_of_largest / real_t(1e4),
                square_overflows = root_of_largest * real_t(7.5), near_largest = limits::max() / real_t(1e8);
-  const std::vector<real_t> values = {0,    1, -1, tiny, square_fits, square_overflows, near_largest, -near_largest,
+  const std::vector<real_t> values = {0, 1, -1, tiny, square_fits, square_overflows, near_largest, -near_largest,
                                       inf, -inf, nan};
   long surely = 0;
   for (real_t rho : values)
