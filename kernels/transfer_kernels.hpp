@@ -1409,6 +1409,30 @@ struct TakesLanes<Sink, L,
                                                                    std::declval<LaneGradients<L>>()))>>
     : std::true_type {};
 
+// Which of a G2P-and-G2PD sink's interpolations it reads: the values, gradients along x and along y
+// of the components whose bits are set, as a member type reads_interpolations =
+// InterpolationsRead<values, gradients_x, gradients_y>; all of them for a sink without it. Where
+// the interpolations come from a thread's window (walk_tiles_through_windows), only those are
+// stored into the batch's lanes and the rest left unset: a sink reading one it does not list would
+// read whatever the stack held (the step's update is tested against the batches' path, which
+// stores all). (A type: nvcc warns of a constant its build never reads.)
+template <unsigned Values, unsigned GradientsX, unsigned GradientsY>
+struct InterpolationsRead {
+  KOKKOS_INLINE_FUNCTION static constexpr bool value(int c) { return (Values >> c) & 1u; }
+  KOKKOS_INLINE_FUNCTION static constexpr bool gradient_x(int c) { return (GradientsX >> c) & 1u; }
+  KOKKOS_INLINE_FUNCTION static constexpr bool gradient_y(int c) { return (GradientsY >> c) & 1u; }
+};
+template <class Sink, class = void>
+struct InterpolationsReadByOf {
+  using type = InterpolationsRead<~0u, ~0u, ~0u>;
+};
+template <class Sink>
+struct InterpolationsReadByOf<Sink, std::void_t<typename Sink::reads_interpolations>> {
+  using type = typename Sink::reads_interpolations;
+};
+template <class Sink>
+using InterpolationsReadBy = typename InterpolationsReadByOf<Sink>::type;
+
 // G2P and G2PD body in one: value_c = sum_i F_c(node i) phi_i(X_p) and gradient_c = sum_i
 // F_c(node i) grad phi_i(X_p), handed to sink(p, value, gradient). The value costs a multiply-add
 // per row and column more than the gradient alone: its row sums are the gradient's along y.
@@ -1459,7 +1483,11 @@ struct G2PAndG2PDBody {
   // lie side by side: particle by particle, each node's columns as one vector of the window's
   // width, a multiply-add of it per weight (the same operations in the same order), the results
   // stored into the lanes for the sinks. Nine vector loads a GIMP particle instead of 45 scalar
-  // loads and stores, and their address arithmetic, which were half of G2PD's time.
+  // loads and stores, and their address arithmetic, which were half of G2PD's time. Only the
+  // results the sink reads are stored (InterpolationsRead): each is a scalar store out of a vector
+  // register, and the step's update reads 6 of its 18 (storing all of them was 28 % of linear
+  // G2PD's samples, `perf annotate`). The batches' path (ColumnLanes), whose stores are vector
+  // lanes, stores them all: the tests compare the two.
   static constexpr bool from_window = IsWindowColumns<NodeFunctor>::value;
   static constexpr bool gathers_then_finishes = WritesOnlyItsParticle<ParticleSink>::value;
   static constexpr bool interpolates_in_lanes = !from_window;
@@ -1515,10 +1543,11 @@ struct G2PAndG2PDBody {
         gradient_y[c] += gy * row_w[c];
       }
     }
+    using Read = InterpolationsReadBy<ParticleSink>;
     for (int c = 0; c < N; ++c) {
-      lanes.value[c][l] = value[c];
-      lanes.gradient[c][0][l] = gradient_x[c];
-      lanes.gradient[c][1][l] = gradient_y[c];
+      if (Read::value(c)) lanes.value[c][l] = value[c];
+      if (Read::gradient_x(c)) lanes.gradient[c][0][l] = gradient_x[c];
+      if (Read::gradient_y(c)) lanes.gradient[c][1][l] = gradient_y[c];
     }
   }
   // The same body reading the node functor's columns from a thread's window, where they fit in it
@@ -1571,11 +1600,12 @@ struct G2PAndG2PDBody {
   }
   template <class LanesType>
   KOKKOS_FORCEINLINE_FUNCTION void finish(index_t p, const LanesType& lanes, int l, std::false_type) const {
+    using Read = InterpolationsReadBy<ParticleSink>;  // (those not stored are not copied either)
     real_t value[N], gradient[N][2];
     for (int c = 0; c < N; ++c) {
-      value[c] = lanes.value[c][l];
-      gradient[c][0] = lanes.gradient[c][0][l];
-      gradient[c][1] = lanes.gradient[c][1][l];
+      value[c] = Read::value(c) ? lanes.value[c][l] : real_t(0);
+      gradient[c][0] = Read::gradient_x(c) ? lanes.gradient[c][0][l] : real_t(0);
+      gradient[c][1] = Read::gradient_y(c) ? lanes.gradient[c][1][l] : real_t(0);
     }
     sink(p, value, gradient);
   }

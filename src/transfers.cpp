@@ -275,6 +275,13 @@ struct AdvancePosition {
 // (diagonal of the deformation gradient, used by GIMP) from dVx/dx and dVy/dy.
 struct UpdateThermodynamics {
   using writes_only_its_particle = std::true_type;  // (WritesOnlyItsParticle)
+  // What operator() below reads of MoveAndRemapVelocity's interpolations (InterpolationsRead): the
+  // moving velocity, the volume fraction and the mean pressure, and of the remapped velocity's
+  // gradient its diagonal, dVx/dx and dVy/dy. (Six of the eighteen.)
+  using reads_interpolations =
+      InterpolationsRead<(1u << moving_velocity) | (1u << (moving_velocity + 1)) |
+                             (1u << volume_fraction_at_particle) | (1u << mean_pressure_at_particle),
+                         1u << remapped_velocity, 1u << (remapped_velocity + 1)>;
   AdvancePosition advance;
   RealView density, specific_energy, viscosity, stretch_x, stretch_y;
   real_t dt, gamma, cell_size, c0, c1;

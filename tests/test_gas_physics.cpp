@@ -223,5 +223,78 @@ TEST(SubCellConsistency, TheRelaxationPassKeepsEachCellsVolumeAndEnergyAndEvensI
   }
 }
 
+// Step 10's particle update (G2P and G2PD with UpdateThermodynamics) on the CPUs' sorted walk, whose
+// windows store into a batch's lanes only the interpolations the update says it reads
+// (InterpolationsRead), against the same update on the duplicated ScatterView's batches, which
+// store them all: the same particles to round-off. Every node column the update interpolates
+// varies from node to node and every particle field it reads from particle to particle, so an
+// interpolation read but not listed (whatever the stack held, in the walk) shows. Linear and GIMP,
+// with the volume correction and the energy-consistent work.
+TEST(ParticleUpdate, TheSortedWalkGivesTheUpdateEveryInterpolationItReads) {
+  if (!std::is_same<MemorySpace, Kokkos::HostSpace>::value) GTEST_SKIP() << "the windows are the CPUs' walk";
+  for (const char* shape : {"linear", "gimp"}) {
+    SCOPED_TRACE(shape);
+    std::vector<std::vector<real_t>> updated[2];
+    const P2GStrategy strategies[2] = {P2GStrategy::sorted, P2GStrategy::duplicated};
+    for (int s = 0; s < 2; ++s) {
+      CaseConfig config = load_case_file(std::string(MPMFLOW_SOURCE_DIR) + "/cases/cylinder_mach3.json",
+                                         {"domain/cells_x=48", "domain/cells_y=24", "output/snapshots=0",
+                                          std::string("numerics/shape_function=") + shape});
+      config.numerics.p2g = strategies[s];
+      const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+      ParticleState pt = create_initial_particles(config, slab);
+      GridFields fields(slab.geometry);
+      const auto transfers = make_transfer_kernels(config, slab.geometry, fields);
+      ASSERT_EQ(transfers->strategy(), strategies[s]);
+      // Particles' fields varied, then step 3 as in a step (the sorted walk groups the particles there).
+      const auto vary = [](const RealView& field, real_t amplitude, real_t rate, real_t offset) {
+        std::vector<real_t> values = host_copy(field);
+        for (size_t k = 0; k < values.size(); ++k) values[k] = (offset + values[k]) * (1 + amplitude * std::sin(rate * k));
+        Kokkos::deep_copy(field, Kokkos::View<real_t*, Kokkos::HostSpace, Kokkos::MemoryUnmanaged>(values.data(), values.size()));
+      };
+      vary(pt.density, real_t(0.05), real_t(1.3), 0);
+      vary(pt.specific_energy, real_t(0.03), real_t(0.7), 0);
+      vary(pt.artificial_viscosity, real_t(0.5), real_t(0.4), real_t(0.01));
+      vary(pt.domain_stretch_x, real_t(0.1), real_t(0.9), 0);
+      vary(pt.domain_stretch_y, real_t(0.1), real_t(1.1), 0);
+      transfers->p2g_mass_momentum_force(pt);
+      // The node columns step 10 reads (MoveAndRemapVelocity), each varying in its own way.
+      const GridGeometry& g = slab.geometry;
+      const real_t pressure = (config.physics.gamma - 1) * host_copy(pt.density)[0] * host_copy(pt.specific_energy)[0];
+      auto nodes = Kokkos::create_mirror_view(fields.per_unit_mass);
+      for (index_t j = 0; j < g.nodes_y; ++j)
+        for (index_t i = 0; i < g.nodes_x; ++i) {
+          const index_t n = g.node_index(i, j);
+          nodes(n, GridFields::velocity_x) = 3 + 0.4 * std::sin(0.37 * i + 0.21 * j);
+          nodes(n, GridFields::velocity_y) = 0.3 * std::cos(0.29 * i - 0.43 * j);
+          nodes(n, GridFields::remap_velocity_x) = 3 + 0.5 * std::sin(0.23 * i) * std::cos(0.31 * j);
+          nodes(n, GridFields::remap_velocity_y) = 0.4 * std::cos(0.19 * i + 0.27 * j);
+          nodes(n, GridFields::volume_fraction) = 1 + 0.2 * std::sin(0.41 * i - 0.17 * j);
+          nodes(n, GridFields::mean_pressure) = pressure * (1 + 0.1 * std::cos(0.13 * i + 0.53 * j));
+        }
+      Kokkos::deep_copy(fields.per_unit_mass, nodes);
+      const real_t h = slab.cell_size();
+      ThermodynamicConstants constants{config.physics.gamma, h, config.physics.viscosity_quadratic,
+                                       config.physics.viscosity_linear};
+      ASSERT_TRUE(constants.energy_consistent && constants.volume_correction);
+      transfers->g2pd_particle_update(pt, constants, real_t(0.1) * h / 4);
+      for (const RealView& field : {pt.density, pt.specific_energy, pt.artificial_viscosity, pt.position_x,
+                                    pt.position_y, pt.domain_stretch_x, pt.domain_stretch_y})
+        updated[s].push_back(host_copy(field));
+    }
+    const char* names[] = {"density", "specific energy", "viscosity", "x", "y", "stretch x", "stretch y"};
+    for (size_t f = 0; f < updated[0].size(); ++f) {
+      const std::vector<real_t>& walked = updated[0][f];
+      const std::vector<real_t>& batched = updated[1][f];
+      ASSERT_EQ(walked.size(), batched.size());
+      double largest = 0;
+      for (const real_t value : batched) largest = std::max<double>(largest, std::fabs(value));
+      ASSERT_GT(largest, 0) << names[f];
+      for (size_t k = 0; k < walked.size(); ++k)
+        ASSERT_NEAR(walked[k], batched[k], 1e-12 * largest) << names[f] << " of particle " << k;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace mpmflow

@@ -1123,6 +1123,69 @@ TEST(ColouredTiles, WindowedValuesAndGradientsAreTheReferenceOnes) {
   }
 }
 
+// A sink that reads only some of the interpolations and says so (reads_interpolations): those into
+// out(p, 3 c) (value), 3 c + 1 and 3 c + 2 (gradient along x, y), as StoreValuesAndGradients, and
+// zeros in place of the others.
+template <int N, class Read>
+struct StoreTheInterpolationsRead {
+  using writes_only_its_particle = std::true_type;
+  using reads_interpolations = Read;
+  NodeFieldsView out;
+  template <class Values, class Gradients>
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, Values v, Gradients g) const {
+    for (int c = 0; c < N; ++c) {
+      out(p, 3 * c) = Read::value(c) ? real_t(v[c]) : real_t(0);
+      out(p, 3 * c + 1) = Read::gradient_x(c) ? real_t(g[c][0]) : real_t(0);
+      out(p, 3 * c + 2) = Read::gradient_y(c) ? real_t(g[c][1]) : real_t(0);
+    }
+  }
+};
+
+// The windowed G2P and G2PD stores into a batch's lanes only the interpolations its sink reads: a
+// sink that lists some gets the reference traversal's values for them, to round-off (the step's
+// update reads the values of four of its six columns and the diagonal of a gradient).
+template <class Make>
+void expect_windowed_interpolations_read_are_the_reference_ones(const GridGeometry& grid) {
+  constexpr int N = 6;
+  using Read = InterpolationsRead<0b110011u, 0b000100u, 0b001000u>;
+  using Sink = StoreTheInterpolationsRead<N, Read>;
+  using Shape = decltype(Make::make(std::declval<const GridGeometry&>(), index_t(0)));
+  static_assert(ReadsThroughWindow<G2PAndG2PDBody<NodeColumns<N>, Sink, Shape::stencil_width>>::value,
+                "read through windows on CPUs");
+  const MovedParticlesByTile<Make> moved(grid);
+  const GridGeometry& g = moved.g;
+  const DeviceParticles& d = moved.d;
+  const NodeFieldsView nodal = varied_node_columns(g, N + 1);
+  NodeFieldsView windowed("windowed", d.count, 3 * N), reference("reference", d.count, 3 * N);
+  g2p_and_g2pd("test_windowed", moved.shape, d.where, moved.by_tile.cells, NodeColumns<N>{nodal, 1}, Sink{windowed});
+  g2p_and_g2pd("test_reference", moved.shape, d.where, d.count, NodeColumns<N>{nodal, 1}, Sink{reference});
+  auto w = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), windowed);
+  auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
+  int columns_read = 0;
+  for (int k = 0; k < 3 * N; ++k) {
+    const int c = k / 3, part = k % 3;
+    const bool read = part == 0 ? Read::value(c) : part == 1 ? Read::gradient_x(c) : Read::gradient_y(c);
+    double largest = 0;
+    for (index_t p = 0; p < d.count; ++p) largest = std::max<double>(largest, std::fabs(r(p, k)));
+    if (!read) {
+      ASSERT_EQ(largest, 0) << "column " << k;
+      continue;
+    }
+    ++columns_read;
+    ASSERT_GT(largest, 0) << "column " << k;
+    for (index_t p = 0; p < d.count; ++p)
+      ASSERT_NEAR(w(p, k), r(p, k), 1e-13 * largest) << "particle " << p << ", column " << k;
+  }
+  EXPECT_EQ(columns_read, 6);
+}
+TEST(ColouredTiles, WindowedSinkReadingSomeInterpolationsGetsTheReferenceOnes) {
+  for (const GridGeometry& grid : TilesOfMovedParticles::grids()) {
+    SCOPED_TRACE(cells_named(grid.cells_x(), grid.cells_y()));
+    expect_windowed_interpolations_read_are_the_reference_ones<MakeLinear>(grid);
+    expect_windowed_interpolations_read_are_the_reference_ones<MakeGimp>(grid);
+  }
+}
+
 // select_indices, with a buffer kept from call to call and without: the selected indices of
 // [first, last) in increasing order. (A function, not a generic lambda: nvcc allows no device lambda launched from one.)
 template <class Predicate>
