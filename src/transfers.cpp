@@ -277,7 +277,8 @@ struct UpdateThermodynamics {
   using writes_only_its_particle = std::true_type;  // (WritesOnlyItsParticle)
   // What operator() below reads of MoveAndRemapVelocity's interpolations (InterpolationsRead): the
   // moving velocity, the volume fraction and the mean pressure, and of the remapped velocity's
-  // gradient its diagonal, dVx/dx and dVy/dy. (Six of the eighteen.)
+  // gradient its diagonal, dVx/dx and dVy/dy: six of the eighteen. (One read but not listed is not
+  // in the CPU walk's lanes: ParticleUpdate.TheSortedWalkGivesTheUpdateEveryInterpolationItReads.)
   using reads_interpolations =
       InterpolationsRead<(1u << moving_velocity) | (1u << (moving_velocity + 1)) |
                              (1u << volume_fraction_at_particle) | (1u << mean_pressure_at_particle),
