@@ -75,9 +75,7 @@ Solver::Solver(const CaseConfig& config, std::unique_ptr<SlabState> slab_state, 
   transfers_ = make_transfer_kernels(config_, slab_->geometry(), slab_->fields());
   settings_.fused_kernels = config_.numerics.fused_kernels;
   settings_.reorder_interval = config_.numerics.reorder_interval;
-  settings_.thermodynamics = {config_.physics.gamma, slab_->slab().cell_size(), config_.physics.viscosity_quadratic,
-                              config_.physics.viscosity_linear, config_.numerics.energy_consistent,
-                              config_.numerics.volume_correction && !config_.numerics.cell_averaged_strain};
+  settings_.thermodynamics = thermodynamic_constants(config_, slab_->slab().cell_size());
   double mass_and_count[2] = {sum_in_order(particles_.mass, particles_.count), double(particles_.count)};
   context().sum_in_place(mass_and_count, 2);
   // A millionth of the mean particle mass: far below any node a particle really touches.

@@ -688,6 +688,15 @@ std::unique_ptr<TransferKernels> make_for_shape(const CaseConfig& config, const 
 
 }  // namespace
 
+ThermodynamicConstants thermodynamic_constants(const CaseConfig& config, real_t cell_size) {
+  return {config.physics.gamma,
+          cell_size,
+          config.physics.viscosity_quadratic,
+          config.physics.viscosity_linear,
+          config.numerics.energy_consistent,
+          config.numerics.volume_correction && !config.numerics.cell_averaged_strain};
+}
+
 ParticleOrder particle_order_of(const NumericsConfig& numerics) {
   return numerics.reorder_interval > 0 ? ParticleOrder::reordered_by_cell : ParticleOrder::never_reordered;
 }

@@ -28,6 +28,11 @@ struct ThermodynamicConstants {
   bool volume_correction = true;
 };
 
+// The constants as a run takes them from the case, for cells of `cell_size`: the one place the
+// solver and the tests make them. The volume correction does not act with cell-averaged strain
+// (README, Numerics).
+ThermodynamicConstants thermodynamic_constants(const CaseConfig& config, real_t cell_size);
+
 // Bound to the grid fields of one slab (rebuilt with them).
 class TransferKernels {
  public:

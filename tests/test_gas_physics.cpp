@@ -165,8 +165,7 @@ TEST(SubCellConsistency, TheRelaxationPassKeepsEachCellsVolumeAndEnergyAndEvensI
     GridFields fields(slab.geometry);
     const auto transfers = make_transfer_kernels(config, slab.geometry, fields);
     const real_t gamma = config.physics.gamma, h = slab.cell_size(), dt = real_t(0.4) * h;  // dt c / h about 0.45
-    const ThermodynamicConstants constants{gamma, h, config.physics.viscosity_quadratic,
-                                           config.physics.viscosity_linear};
+    const ThermodynamicConstants constants = thermodynamic_constants(config, h);
     // Sod's one row of cells lies between ghost rows: the interior cell 7 along x.
     const index_t noisy_cell = slab.geometry.cell_of(real_t(0.075), real_t(0.005));
     std::vector<real_t> rho = host_copy(pt.density);
@@ -281,9 +280,8 @@ void expect_the_sorted_walks_update_to_be_the_batches_one() {
         }
       Kokkos::deep_copy(fields.per_unit_mass, nodes);
       const real_t h = slab.cell_size();
-      ThermodynamicConstants constants{config.physics.gamma, h, config.physics.viscosity_quadratic,
-                                       config.physics.viscosity_linear};
-      ASSERT_TRUE(constants.energy_consistent && constants.volume_correction);
+      const ThermodynamicConstants constants = thermodynamic_constants(config, h);
+      ASSERT_TRUE(constants.energy_consistent && constants.volume_correction);  // (the case's, as a run takes them)
       transfers->g2pd_particle_update(pt, constants, real_t(0.1) * h / 4);
       for (const RealView& field : {pt.density, pt.specific_energy, pt.artificial_viscosity, pt.position_x,
                                     pt.position_y, pt.domain_stretch_x, pt.domain_stretch_y})
