@@ -345,6 +345,10 @@ void BM_Step(benchmark::State& state, RunSpec spec) {
   state.counters["row_triad_GBps"] = row_triad_GBps;
   state.counters["row_triad_fraction"] = step_bytes / step_seconds / 1e9 / row_triad_GBps;
   state.counters["model_B_per_particle"] = step_bytes / run.particles;
+  // The rate at which the step would run if it moved its model bytes at the row's triad speed: an
+  // upper bound, as far as the model holds, for a step bound by memory on this machine at this
+  // minute, to hold a target against (a step bound by its core's work runs below it).
+  state.counters["row_triad_bound_particle_steps_per_s"] = row_triad_GBps * 1e9 / (step_bytes / run.particles);
   state.counters["peak_alloc_B_per_particle"] = double(run.peak_bytes) / solver.particles().count;
   // The particle Views' capacity (spare room included) per particle in use.
   state.counters["particle_B_per_particle"] = double(memory.particle_bytes) / solver.particles().count;
