@@ -1,0 +1,129 @@
+#!/usr/bin/python3
+"""ctest: the benchmark program (benchmarks/bench_kernels.cpp) runs the rows of its kernel matrix at
+a small size and reports, for each, the counters the README's Benchmarks section names, finite and
+consistent with each other; and its own options, given wrong, get an error naming the option and
+what it expects. It times nothing: the figures' values are not checked, only that each row ran and
+that its counters agree.
+
+Usage: benchmark_counters.py MPMFLOW_BENCHMARKS WORK_DIR
+"""
+import json
+import math
+import os
+import subprocess
+import sys
+
+# A small grid, 9 particles a cell, both shapes, random order and reordered every step: the matrix's
+# rows at that size (Google Benchmark lists what the filter selects, so the rows expected are the
+# program's own list, not one written again here).
+SMALL_ROWS = ["--cells=2000", "--matrix-only", "--shapes=gimp,linear", "--steps=3",
+              "--benchmark_filter=/2000/3/"]
+
+STEP_COUNTERS = ["particles", "cells", "particle_steps_per_s", "GBps", "row_triad_GBps", "row_triad_fraction",
+                 "row_triad_bound_particle_steps_per_s", "model_B_per_particle", "peak_alloc_B_per_particle",
+                 "particle_B_per_particle", "grid_B_per_node"]
+KERNEL_COUNTERS = ["particles", "cells", "Mpps", "GBps", "model_B_per_particle"]
+
+failures = []
+
+
+def fail(message):
+    failures.append(message)
+    print("FAIL: " + message)
+
+
+def close(a, b):
+    return abs(a - b) <= 1e-9 * max(abs(a), abs(b))
+
+
+def check_counters(row, names):
+    values = {}
+    for name in names:
+        value = row.get(name)
+        if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+            fail(f"{row['name']}: counter {name} is {value!r}, expected a finite positive number")
+        else:
+            values[name] = value
+    return values if len(values) == len(names) else None
+
+
+def check_step(row):
+    c = check_counters(row, STEP_COUNTERS)
+    if c is None:
+        return
+    # The bound is the step's rate over its share of the triad; the bandwidth its model bytes at its rate.
+    if not close(c["row_triad_bound_particle_steps_per_s"] * c["row_triad_fraction"], c["particle_steps_per_s"]):
+        fail(f"{row['name']}: row_triad_bound_particle_steps_per_s x row_triad_fraction != particle_steps_per_s")
+    if not close(c["particle_steps_per_s"] * c["model_B_per_particle"] / 1e9, c["GBps"]):
+        fail(f"{row['name']}: GBps != particle_steps_per_s x model_B_per_particle")
+    # The peak of all allocations holds the particle storage, spare capacity included.
+    if c["peak_alloc_B_per_particle"] < c["particle_B_per_particle"]:
+        fail(f"{row['name']}: peak_alloc_B_per_particle {c['peak_alloc_B_per_particle']} is below "
+             f"particle_B_per_particle {c['particle_B_per_particle']}")
+
+
+def check_kernel(row):
+    c = check_counters(row, KERNEL_COUNTERS)
+    if c is not None and not close(c["Mpps"] * 1e6 * c["model_B_per_particle"] / 1e9, c["GBps"]):
+        fail(f"{row['name']}: GBps != Mpps x model_B_per_particle")
+
+
+def check_rows(benchmarks, work_dir):
+    listed = subprocess.run([benchmarks] + SMALL_ROWS + ["--benchmark_list_tests=true"], capture_output=True,
+                            text=True)
+    expected = [line for line in listed.stdout.splitlines() if line.startswith("BM_")]
+    if listed.returncode != 0 or not expected:
+        fail(f"listing the rows: exit {listed.returncode}, {len(expected)} rows\n{listed.stderr}")
+        return
+    out = os.path.join(work_dir, "rows.json")
+    run = subprocess.run([benchmarks] + SMALL_ROWS + [f"--benchmark_out={out}", "--benchmark_out_format=json"],
+                         capture_output=True, text=True)
+    if run.returncode != 0:
+        fail(f"the rows: exit {run.returncode}\n{run.stderr}")
+        return
+    with open(out) as f:
+        report = json.load(f)
+    if report["context"].get("real_t") not in ("double", "float"):
+        fail(f"the context's real_t is {report['context'].get('real_t')!r}, expected double or float")
+    rows = {row["run_name"]: row for row in report["benchmarks"]}
+    steps = kernels = 0
+    for name in expected:
+        row = rows.get(name)
+        if row is None:
+            fail(f"row {name} was listed but did not report")
+        elif name.startswith("BM_Step/"):
+            check_step(row)
+            steps += 1
+        elif name.startswith("BM_Kernel/"):
+            check_kernel(row)
+            kernels += 1
+    print(f"{len(expected)} rows listed; {steps} step rows and {kernels} kernel rows checked")
+    if steps == 0 or kernels == 0:
+        fail("no step row or no kernel row among the rows listed")
+
+
+def check_option_errors(benchmarks):
+    for option, named in [("--cells=abc", ["--cells", '"abc"', "expected"]),
+                          ("--shapes=cubic", ["--shapes", '"cubic"', "expected", "gimp", "linear"]),
+                          ("--steps=0", ["--steps", '"0"', "expected"])]:
+        run = subprocess.run([benchmarks, option, "--benchmark_filter=NONE"], capture_output=True, text=True)
+        missing = [word for word in named if word not in run.stderr]
+        if run.returncode != 2 or missing:
+            fail(f"{option}: exit {run.returncode} (expected 2), the error lacks {missing}: {run.stderr.strip()!r}")
+        else:
+            print(f"{option}: {run.stderr.strip()}")
+
+
+def main():
+    if len(sys.argv) != 3:
+        print(__doc__)
+        return 2
+    benchmarks, work_dir = sys.argv[1], sys.argv[2]
+    os.makedirs(work_dir, exist_ok=True)
+    check_rows(benchmarks, work_dir)
+    check_option_errors(benchmarks)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
