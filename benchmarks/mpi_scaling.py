@@ -16,6 +16,7 @@ import argparse
 import csv
 import os
 import re
+import shutil
 import subprocess
 import sys
 
@@ -40,23 +41,48 @@ def run(args, ranks, cells_x, cells_y):
     return int(particles.group(1)), int(done.group(1)), float(done.group(3))
 
 
+def positive_ints(count=None):
+    """An argparse type: comma-separated positive whole numbers (exactly `count` of them if given)."""
+    def parse(text):
+        try:
+            values = [int(v) for v in text.split(",")]
+        except ValueError:
+            values = []
+        if not values or any(v < 1 for v in values) or (count is not None and len(values) != count):
+            what = ("a positive whole number" if count == 1 else f"{count} positive whole numbers separated by commas"
+                    if count else "positive whole numbers separated by commas")
+            raise argparse.ArgumentTypeError(f"{text!r} is not {what}")
+        return values
+    return parse
+
+
+def positive_int(text):
+    return positive_ints(1)(text)[0]
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--mpmflow", default="build/openmp/bin/mpmflow")
     parser.add_argument("--mpiexec", default="mpirun")
     parser.add_argument("--case", default="cases/cylinder_mach3.json")
-    parser.add_argument("--ranks", default="1,2,4")
-    parser.add_argument("--cells", default="160,80", help="strong scaling grid: cells_x,cells_y")
-    parser.add_argument("--weak-cells", default="60,80", help="weak scaling grid per rank: cells_x,cells_y")
-    parser.add_argument("--ppc", type=int, default=3, help="particles per cell along each axis")
-    parser.add_argument("--steps", type=int, default=100)
-    parser.add_argument("--threads", type=int, default=1, help="OpenMP threads per rank")
+    parser.add_argument("--ranks", default="1,2,4", type=positive_ints())
+    parser.add_argument("--cells", default="160,80", type=positive_ints(2), help="strong scaling grid: cells_x,cells_y")
+    parser.add_argument("--weak-cells", default="60,80", type=positive_ints(2), help="weak scaling grid per rank: cells_x,cells_y")
+    parser.add_argument("--ppc", type=positive_int, default=3, help="particles per cell along each axis")
+    parser.add_argument("--steps", type=positive_int, default=100)
+    parser.add_argument("--threads", type=positive_int, default=1, help="OpenMP threads per rank")
     parser.add_argument("--balance-interval", type=int, default=20)
     parser.add_argument("--out", default="benchmarks/results")
     args = parser.parse_args()
-    ranks = [int(r) for r in args.ranks.split(",")]
-    strong_x, strong_y = (int(v) for v in args.cells.split(","))
-    weak_x, weak_y = (int(v) for v in args.weak_cells.split(","))
+    if not os.path.exists(args.mpmflow):
+        sys.exit(f"mpi_scaling: --mpmflow {args.mpmflow} not found: build first (bash scripts/build.sh)")
+    if shutil.which(args.mpiexec) is None:
+        sys.exit(f"mpi_scaling: --mpiexec {args.mpiexec} not found on PATH (Open MPI's mpirun expected)")
+    if not os.path.exists(args.case):
+        sys.exit(f"mpi_scaling: --case {args.case} not found")
+    ranks = args.ranks
+    strong_x, strong_y = args.cells
+    weak_x, weak_y = args.weak_cells
     os.makedirs(args.out, exist_ok=True)
 
     rows = []
@@ -74,10 +100,11 @@ def main():
                   f"{rate:.3e} particle-steps/s  efficiency {efficiency:.2f}", flush=True)
 
     csv_path = os.path.join(args.out, "scaling.csv")
-    with open(csv_path, "w", newline="") as f:
+    with open(csv_path + ".tmp", "w", newline="") as f:  # renamed once whole: never a half-written table
         writer = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         writer.writeheader()
         writer.writerows(rows)
+    os.replace(csv_path + ".tmp", csv_path)
     print(f"wrote {csv_path}")
 
     import matplotlib
@@ -103,7 +130,8 @@ def main():
     fig.suptitle(f"mpmflow MPI scaling ({args.threads} thread(s) per rank, {os.cpu_count()} cores)")
     fig.tight_layout()
     png_path = os.path.join(args.out, "scaling.png")
-    fig.savefig(png_path, dpi=110)
+    fig.savefig(png_path + ".tmp.png", dpi=110)
+    os.replace(png_path + ".tmp.png", png_path)
     print(f"wrote {png_path}")
 
 
