@@ -49,8 +49,12 @@ def positive_ints(count=None):
         except ValueError:
             values = []
         if not values or any(v < 1 for v in values) or (count is not None and len(values) != count):
-            what = ("a positive whole number" if count == 1 else f"{count} positive whole numbers separated by commas"
-                    if count else "positive whole numbers separated by commas")
+            if count == 1:
+                what = "a positive whole number"
+            elif count:
+                what = f"{count} positive whole numbers separated by commas"
+            else:
+                what = "positive whole numbers separated by commas"
             raise argparse.ArgumentTypeError(f"{text!r} is not {what}")
         return values
     return parse
@@ -67,7 +71,8 @@ def main():
     parser.add_argument("--case", default="cases/cylinder_mach3.json")
     parser.add_argument("--ranks", default="1,2,4", type=positive_ints())
     parser.add_argument("--cells", default="160,80", type=positive_ints(2), help="strong scaling grid: cells_x,cells_y")
-    parser.add_argument("--weak-cells", default="60,80", type=positive_ints(2), help="weak scaling grid per rank: cells_x,cells_y")
+    parser.add_argument("--weak-cells", default="60,80", type=positive_ints(2),
+                        help="weak scaling grid per rank: cells_x,cells_y")
     parser.add_argument("--ppc", type=positive_int, default=3, help="particles per cell along each axis")
     parser.add_argument("--steps", type=positive_int, default=100)
     parser.add_argument("--threads", type=positive_int, default=1, help="OpenMP threads per rank")
