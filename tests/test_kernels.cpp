@@ -1023,9 +1023,11 @@ struct StoreValuesAndGradients {
 // or a later column of the node fields (TilesOfMovedParticles: consecutive and listed batches;
 // strips and rectangles, the last of them partial). A sink that lists the interpolations it reads
 // (reads_interpolations, which the walk alone stores into its lanes) gets those; it stores zeros in
-// place of the others (StoreTheInterpolationsRead), and so does the reference.
+// place of the others (StoreTheInterpolationsRead), and so does the reference; `columns_read` of
+// the 3 N are compared.
 template <class Make, int N, class Sink = StoreValuesAndGradients<N>>
-void expect_windowed_g2p_and_g2pd_matches_the_reference(const GridGeometry& grid, int first_column) {
+void expect_windowed_g2p_and_g2pd_matches_the_reference(const GridGeometry& grid, int first_column,
+                                                        int columns_read = 3 * N) {
   using Read = InterpolationsReadBy<Sink>;
   using Shape = decltype(Make::make(std::declval<const GridGeometry&>(), index_t(0)));
   static_assert(ReadsThroughWindow<G2PAndG2PDBody<NodeColumns<N>, Sink, Shape::stencil_width>>::value,
@@ -1040,6 +1042,7 @@ void expect_windowed_g2p_and_g2pd_matches_the_reference(const GridGeometry& grid
   g2p_and_g2pd("test_reference", moved.shape, d.where, d.count, NodeColumns<N>{nodal, first_column}, Sink{reference});
   auto w = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), windowed);
   auto r = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference);
+  int compared = 0;
   for (int k = 0; k < 3 * N; ++k) {
     const int c = k / 3, part = k % 3;
     const bool read = part == 0 ? Read::value(c) : part == 1 ? Read::gradient_x(c) : Read::gradient_y(c);
@@ -1049,10 +1052,12 @@ void expect_windowed_g2p_and_g2pd_matches_the_reference(const GridGeometry& grid
       ASSERT_EQ(largest, 0) << "column " << k << ", not read";
       continue;
     }
+    ++compared;
     ASSERT_GT(largest, 0) << "column " << k;
     for (index_t p = 0; p < d.count; ++p)
       ASSERT_NEAR(w(p, k), r(p, k), 1e-13 * largest) << "particle " << p << ", column " << k;
   }
+  EXPECT_EQ(compared, columns_read);
 }
 // G2P then P2G's update for the windowed test: stores the N interpolated values, hands out M
 // particle values made of them.
@@ -1156,8 +1161,8 @@ TEST(ColouredTiles, WindowedSinkReadingSomeInterpolationsGetsTheReferenceOnes) {
   for (const GridGeometry& grid : TilesOfMovedParticles::grids()) {
     SCOPED_TRACE(cells_named(grid.cells_x(), grid.cells_y()));
     using Read = InterpolationsRead<0b110011u, 0b000100u, 0b001000u>;
-    expect_windowed_g2p_and_g2pd_matches_the_reference<MakeLinear, 6, StoreTheInterpolationsRead<6, Read>>(grid, 1);
-    expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, 6, StoreTheInterpolationsRead<6, Read>>(grid, 1);
+    expect_windowed_g2p_and_g2pd_matches_the_reference<MakeLinear, 6, StoreTheInterpolationsRead<6, Read>>(grid, 1, 6);
+    expect_windowed_g2p_and_g2pd_matches_the_reference<MakeGimp, 6, StoreTheInterpolationsRead<6, Read>>(grid, 1, 6);
   }
 }
 
