@@ -51,6 +51,7 @@ class ObjectReader {
 
   bool has(const std::string& key) const {
     record(key);
+    asked_.insert(key);
     return object_.contains(key);
   }
 
@@ -148,14 +149,16 @@ class ObjectReader {
   const json& require(const std::string& key) {
     record(key);
     used_.insert(key);
+    asked_.insert(key);
     if (!object_.contains(key))
       throw ConfigError(source_ + ": " + at(key) + ": required key is missing");
     return object_.at(key);
   }
+  // Every key looked for here, present or not: the optional ones a misspelling most likely meant.
   std::string known_keys_hint() const {
-    if (used_.empty()) return "";
+    if (asked_.empty()) return "";
     std::string hint = " (known here:";
-    for (const auto& k : used_) hint += " " + k;
+    for (const auto& k : asked_) hint += " " + k;
     return hint + ")";
   }
 
@@ -174,6 +177,8 @@ class ObjectReader {
   std::string path_;
   std::set<std::string>* keys_;
   std::set<std::string> used_;
+  // Every key looked for (has or require): the hint's list. Mutable: has() is a const question.
+  mutable std::set<std::string> asked_;
 };
 
 GasState read_gas_state(ObjectReader& r) {

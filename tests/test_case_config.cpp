@@ -67,6 +67,12 @@ TEST(CaseConfig, ShippedSodCaseParses) {
 TEST(CaseConfig, UnknownKeyIsRejectedWithItsPath) {
   const std::string e = error_of(minimal_with(R"("end": 0.5)", R"("end": 0.5, "ned": 1)"));
   EXPECT_NE(e.find("case.json: /time/ned: unknown key"), std::string::npos) << e;
+  // The hint lists every key looked for there, the optional ones the file leaves out included (the
+  // misspelling most likely meant one of those), not only those it has.
+  const size_t hint = e.find("(known here:");
+  ASSERT_NE(hint, std::string::npos) << e;
+  EXPECT_NE(e.find(" cfl", hint), std::string::npos) << e;
+  EXPECT_NE(e.find(" end", hint), std::string::npos) << e;
 }
 
 TEST(CaseConfig, WrongTypeIsRejectedWithExpectation) {
