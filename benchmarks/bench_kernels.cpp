@@ -96,6 +96,8 @@ struct RunSpec {
   std::string shape = "gimp";          // numerics/shape_function
   std::string p2g = "automatic";       // numerics/p2g
   bool fused = true;                   // numerics/fused_kernels
+  // The user's --set assignments, the same for every row (checked by check_case_overrides).
+  std::vector<std::string> case_overrides;
 
   std::string key() const {
     return std::to_string(target_cells) + "/" + std::to_string(ppc_axis) + "/" + std::to_string(reorder_interval) +
@@ -110,16 +112,26 @@ struct RunSpec {
   }
 };
 
-// The cylinder case at about target_cells cells (its 2:1 domain), ppc_axis^2 particles per cell.
-CaseConfig cylinder_case(const RunSpec& spec) {
+// The case file the rows run.
+std::string cylinder_case_path() { return std::string(MPMFLOW_SOURCE_DIR) + "/cases/cylinder_mach3.json"; }
+
+// What a row sets in the case file itself (one list: cylinder_case applies it, and
+// check_case_overrides refuses a --set of any of its keys): the cylinder case at about
+// target_cells cells (its 2:1 domain), ppc_axis^2 particles per cell, the spec's numerics.
+std::vector<std::string> row_settings(const RunSpec& spec) {
   const long cells_y = std::max(4L, std::lround(std::sqrt(spec.target_cells / 2.0)));
-  return load_case_file(std::string(MPMFLOW_SOURCE_DIR) + "/cases/cylinder_mach3.json",
-                        {"domain/cells_x=" + std::to_string(2 * cells_y), "domain/cells_y=" + std::to_string(cells_y),
-                         "particles/per_cell=[" + std::to_string(spec.ppc_axis) + "," + std::to_string(spec.ppc_axis) + "]",
-                         "numerics/reorder_interval=" + std::to_string(spec.reorder_interval),
-                         "numerics/shape_function=\"" + spec.shape + "\"", "numerics/p2g=\"" + spec.p2g + "\"",
-                         std::string("numerics/fused_kernels=") + (spec.fused ? "true" : "false"),
-                         "output/snapshots=0"});
+  return {"domain/cells_x=" + std::to_string(2 * cells_y), "domain/cells_y=" + std::to_string(cells_y),
+          "particles/per_cell=[" + std::to_string(spec.ppc_axis) + "," + std::to_string(spec.ppc_axis) + "]",
+          "numerics/reorder_interval=" + std::to_string(spec.reorder_interval),
+          "numerics/shape_function=\"" + spec.shape + "\"", "numerics/p2g=\"" + spec.p2g + "\"",
+          std::string("numerics/fused_kernels=") + (spec.fused ? "true" : "false"), "output/snapshots=0"};
+}
+
+// The user's assignments first, the row's after them (check_case_overrides keeps the two apart).
+CaseConfig cylinder_case(const RunSpec& spec) {
+  std::vector<std::string> overrides = spec.case_overrides;
+  for (const std::string& setting : row_settings(spec)) overrides.push_back(setting);
+  return load_case_file(cylinder_case_path(), overrides);
 }
 
 // Puts the particles in a random order (the same for every run).
@@ -415,24 +427,61 @@ std::vector<std::string> parse_shapes(const std::string& list) {
   return shapes;
 }
 
+// The user's --set assignments: a key a row sets itself (row_settings), or one above or below it,
+// is refused, naming it (--cells and --shapes choose those); the rest must make a valid case,
+// checked here, before any row runs, with the case loader's own error naming the key otherwise.
+void check_case_overrides(const std::vector<std::string>& overrides) {
+  auto path_of = [](const std::string& assignment) {
+    std::string path = assignment.substr(0, assignment.find('='));
+    return path.empty() || path.front() != '/' ? path : path.substr(1);
+  };
+  // `a` is `b` or holds it: "numerics" holds "numerics/p2g"; "numerics/p" does not.
+  auto holds = [](const std::string& a, const std::string& b) {
+    return b.compare(0, a.size(), a) == 0 && (a.size() == b.size() || a.empty() || b[a.size()] == '/');
+  };
+  const std::vector<std::string> settings = row_settings(RunSpec{});
+  std::string row_keys;
+  for (const std::string& setting : settings) row_keys += (row_keys.empty() ? "" : ", ") + path_of(setting);
+  for (const std::string& assignment : overrides) {
+    if (assignment.find('=') == std::string::npos || assignment.find('=') == 0) continue;  // the loader names it
+    const std::string path = path_of(assignment);
+    for (const std::string& setting : settings)
+      if (holds(path, path_of(setting)) || holds(path_of(setting), path))
+        throw std::invalid_argument("mpmflow_benchmarks: --set " + assignment + ": \"" + path +
+                                    "\" is set by the rows themselves (expected a key other than " + row_keys +
+                                    "; --cells and --shapes choose the grid sizes and shapes)");
+  }
+  RunSpec spec;
+  spec.case_overrides = overrides;
+  try {
+    cylinder_case(spec);
+  } catch (const ConfigError& e) {
+    throw std::invalid_argument(std::string("mpmflow_benchmarks: --set: ") + e.what());
+  }
+}
+
 // The rows: every kernel and the step, per shape function, grid size, ppc and ordering; then at the
 // target size (1e5 cells, 9 ppc) the P2G strategies, the unfused kernels and the linear shape.
 // Each row runs a fixed number of whole steps (a kernel row times its phase within them), so a
 // row costs the same whatever share of the step its kernel takes.
 void register_benchmarks(const std::vector<std::string>& shapes, const std::vector<long>& cell_counts,
-                         bool matrix_only, int steps_per_row) {
+                         bool matrix_only, int steps_per_row, const std::vector<std::string>& case_overrides) {
   benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->Arg(triad_length)->Unit(benchmark::kMillisecond)->UseRealTime();
   const std::vector<Phase> kernels = {Phase::p2g_mass_momentum_force, Phase::g2p_p2g_velocity_momentum,
                                       Phase::g2pd_particle_update,    Phase::particle_move,
                                       Phase::pressure_relaxation,     Phase::time_step};
   auto add_run = [&](const RunSpec& spec, const std::vector<Phase>& phases) {
     const std::string suffix = "/" + spec.key();
-    for (const Phase phase : phases)
+    // No row for the relaxation where the case (a --set) turns it off: it has no phase to time.
+    const bool relaxes = cylinder_case(spec).numerics.pressure_relaxation;
+    for (const Phase phase : phases) {
+      if (phase == Phase::pressure_relaxation && !relaxes) continue;
       benchmark::RegisterBenchmark((std::string("BM_Kernel/") + phase_name(phase) + suffix).c_str(), BM_Kernel, spec,
                                    phase)
           ->Unit(benchmark::kMillisecond)
           ->UseManualTime()
           ->Iterations(steps_per_row);
+    }
     benchmark::RegisterBenchmark(("BM_Step" + suffix).c_str(), BM_Step, spec)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()
@@ -443,6 +492,7 @@ void register_benchmarks(const std::vector<std::string>& shapes, const std::vect
       for (int ppc_axis : {2, 3, 4})
         for (int reorder : {0, 1}) {
           RunSpec spec;
+          spec.case_overrides = case_overrides;
           spec.shape = shape;
           spec.target_cells = cells;
           spec.ppc_axis = ppc_axis;
@@ -453,6 +503,7 @@ void register_benchmarks(const std::vector<std::string>& shapes, const std::vect
         }
   if (matrix_only) return;
   RunSpec target;  // 1e5 cells, 9 ppc
+  target.case_overrides = case_overrides;
   target.reorder_interval = 20;  // the case file's setting
   for (const char* p2g : {"duplicated", "atomic", "sorted"}) {
     RunSpec s = target;
@@ -476,13 +527,28 @@ void register_benchmarks(const std::vector<std::string>& shapes, const std::vect
 //   --shapes=LIST   shape functions of the kernel matrix, e.g. --shapes=gimp,linear (default gimp)
 //   --matrix-only   only the matrix (grid sizes x ppc x ordering), not the target-size variants
 //   --steps=N       steps per row (default 20)
+//   --set PATH=VALUE  (or --set=PATH=VALUE; repeatable) a case-file setting for every row, as
+//                   `mpmflow run --set` takes it, e.g. --set numerics/pressure_relaxation=false
 int main(int argc, char** argv) {
   mpmflow::reuse_freed_host_memory();  // as the solver's executable does (host_memory.hpp)
   std::string cells = "1e4,1e5", shapes = "gimp", steps_text = "20";
   bool matrix_only = false;
+  std::vector<std::string> case_overrides;
   std::vector<char*> rest;
   for (int k = 0; k < argc; ++k) {
     const std::string arg = argv[k];
+    if (arg == "--set") {
+      if (k + 1 == argc || std::string(argv[k + 1]).rfind("--", 0) == 0) {
+        std::cerr << "mpmflow_benchmarks: --set: expected PATH=VALUE after it, e.g. --set numerics/pressure_relaxation=false\n";
+        return 2;
+      }
+      case_overrides.push_back(argv[++k]);
+      continue;
+    }
+    if (arg.rfind("--set=", 0) == 0) {
+      case_overrides.push_back(arg.substr(6));
+      continue;
+    }
     if (arg.rfind("--cells=", 0) == 0) cells = arg.substr(8);
     else if (arg.rfind("--shapes=", 0) == 0) shapes = arg.substr(9);
     else if (arg == "--matrix-only") matrix_only = true;
@@ -496,6 +562,7 @@ int main(int argc, char** argv) {
     steps = mpmflow::parse_steps(steps_text);
     cell_counts = mpmflow::parse_cells(cells);
     shape_list = mpmflow::parse_shapes(shapes);
+    mpmflow::check_case_overrides(case_overrides);
   } catch (const std::invalid_argument& e) {
     std::cerr << e.what() << "\n";
     return 2;
@@ -503,9 +570,13 @@ int main(int argc, char** argv) {
   int rest_count = static_cast<int>(rest.size());
   Kokkos::ScopeGuard kokkos(rest_count, rest.data());
   mpmflow::allocations();  // counting from here
-  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, steps);
+  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, steps, case_overrides);
   // The context lines above the rows name the precision: the traffic model's bytes follow it.
   benchmark::AddCustomContext("real_t", sizeof(mpmflow::real_t) == sizeof(double) ? "double" : "float");
+  // And what --set changed in the case file, for every row ("none": the case file as it is).
+  std::string settings;
+  for (const std::string& assignment : case_overrides) settings += (settings.empty() ? "" : " ") + assignment;
+  benchmark::AddCustomContext("case_overrides", settings.empty() ? "none" : settings);
   benchmark::Initialize(&rest_count, rest.data());
   if (benchmark::ReportUnrecognizedArguments(rest_count, rest.data())) return 1;
   benchmark::RunSpecifiedBenchmarks();

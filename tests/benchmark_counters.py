@@ -1,9 +1,10 @@
 #!/usr/bin/python3
 """ctest: the benchmark program (benchmarks/bench_kernels.cpp) runs the rows of its kernel matrix at
 a small size and reports, for each, the counters the README's Benchmarks section names, finite and
-consistent with each other; and its own options, given wrong, get an error naming the option and
-what it expects. It times nothing: the figures' values are not checked, only that each row ran and
-that its counters agree.
+consistent with each other; the same rows with a case-file setting of the user's (--set), which
+the report's context names and which leaves out the row of a phase it turns off; and its own
+options, given wrong, get an error naming the option and what it expects. It times nothing: the
+figures' values are not checked, only that each row ran and that its counters agree.
 
 Usage: benchmark_counters.py MPMFLOW_BENCHMARKS WORK_DIR
 """
@@ -68,23 +69,33 @@ def check_kernel(row):
         fail(f"{row['name']}: GBps != Mpps x model_B_per_particle")
 
 
-def check_rows(benchmarks, work_dir):
-    listed = subprocess.run([benchmarks] + SMALL_ROWS + ["--benchmark_list_tests=true"], capture_output=True,
+# The relaxation turned off for every row: its kernel rows go, the others run without it.
+SETTING = "numerics/pressure_relaxation=false"
+SET_ROWS = ["--cells=2000", "--matrix-only", "--shapes=linear", "--steps=3", "--benchmark_filter=/2000/3/1/",
+            "--set", SETTING]
+
+
+def check_rows(benchmarks, work_dir, options, label, case_overrides):
+    """Runs the rows `options` select; returns the names of those listed (None where none were)."""
+    listed = subprocess.run([benchmarks] + options + ["--benchmark_list_tests=true"], capture_output=True,
                             text=True)
     expected = [line for line in listed.stdout.splitlines() if line.startswith("BM_")]
     if listed.returncode != 0 or not expected:
         fail(f"listing the rows: exit {listed.returncode}, {len(expected)} rows\n{listed.stderr}")
-        return
-    out = os.path.join(work_dir, "rows.json")
-    run = subprocess.run([benchmarks] + SMALL_ROWS + [f"--benchmark_out={out}", "--benchmark_out_format=json"],
+        return None
+    out = os.path.join(work_dir, label + ".json")
+    run = subprocess.run([benchmarks] + options + [f"--benchmark_out={out}", "--benchmark_out_format=json"],
                          capture_output=True, text=True)
     if run.returncode != 0:
         fail(f"the rows: exit {run.returncode}\n{run.stderr}")
-        return
+        return None
     with open(out) as f:
         report = json.load(f)
     if report["context"].get("real_t") not in ("double", "float"):
         fail(f"the context's real_t is {report['context'].get('real_t')!r}, expected double or float")
+    if report["context"].get("case_overrides") != case_overrides:
+        fail(f"the context's case_overrides is {report['context'].get('case_overrides')!r}, "
+             f"expected {case_overrides!r}")
     rows = {row["run_name"]: row for row in report["benchmarks"]}
     steps = kernels = 0
     for name in expected:
@@ -97,15 +108,34 @@ def check_rows(benchmarks, work_dir):
         elif name.startswith("BM_Kernel/"):
             check_kernel(row)
             kernels += 1
-    print(f"{len(expected)} rows listed; {steps} step rows and {kernels} kernel rows checked")
+    print(f"{label}: {len(expected)} rows listed; {steps} step rows and {kernels} kernel rows checked")
     if steps == 0 or kernels == 0:
-        fail("no step row or no kernel row among the rows listed")
+        fail(f"{label}: no step row or no kernel row among the rows listed")
+    return expected
+
+
+def check_rows_with_setting(benchmarks, work_dir):
+    rows = check_rows(benchmarks, work_dir, SET_ROWS, "set_rows", SETTING)
+    if rows is None:
+        return
+    relaxation = [row for row in rows if "pressure_relaxation" in row]
+    if relaxation:
+        fail(f"--set {SETTING}: rows of the phase it turns off are listed: {relaxation}")
+    if not any(row.startswith("BM_Kernel/particle_move/") for row in rows):
+        fail(f"--set {SETTING}: no particle_move row (which then gives the particles their cells)")
 
 
 def check_option_errors(benchmarks):
     for option, named in [("--cells=abc", ["--cells", '"abc"', "expected"]),
                           ("--shapes=cubic", ["--shapes", '"cubic"', "expected", "gimp", "linear"]),
-                          ("--steps=0", ["--steps", '"0"', "expected"])]:
+                          ("--steps=0", ["--steps", '"0"', "expected"]),
+                          ("--set=numerics/shape_function=linear",
+                           ["--set", '"numerics/shape_function"', "set by the rows", "--shapes"]),
+                          ("--set=particles=1", ["--set", '"particles"', "set by the rows", "particles/per_cell"]),
+                          ("--set=numerics/pressure_relaxaton=false",
+                           ["--set", "/numerics/pressure_relaxaton", "unknown key", "pressure_relaxation"]),
+                          ("--set=time/cfl=2", ["--set", "/time/cfl", "expected", "(0, 1]"]),
+                          ("--set", ["--set", "expected PATH=VALUE"])]:
         run = subprocess.run([benchmarks, option, "--benchmark_filter=NONE"], capture_output=True, text=True)
         missing = [word for word in named if word not in run.stderr]
         if run.returncode != 2 or missing:
@@ -120,7 +150,8 @@ def main():
         return 2
     benchmarks, work_dir = sys.argv[1], sys.argv[2]
     os.makedirs(work_dir, exist_ok=True)
-    check_rows(benchmarks, work_dir)
+    check_rows(benchmarks, work_dir, SMALL_ROWS, "rows", "none")
+    check_rows_with_setting(benchmarks, work_dir)
     check_option_errors(benchmarks)
     return 1 if failures else 0
 
