@@ -539,7 +539,8 @@ int main(int argc, char** argv) {
     const std::string arg = argv[k];
     if (arg == "--set") {
       if (k + 1 == argc || std::string(argv[k + 1]).rfind("--", 0) == 0) {
-        std::cerr << "mpmflow_benchmarks: --set: expected PATH=VALUE after it, e.g. --set numerics/pressure_relaxation=false\n";
+        std::cerr << "mpmflow_benchmarks: --set: expected PATH=VALUE after it, e.g. --set "
+                     "numerics/pressure_relaxation=false\n";
         return 2;
       }
       case_overrides.push_back(argv[++k]);

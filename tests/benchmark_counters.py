@@ -76,7 +76,8 @@ SET_ROWS = ["--cells=2000", "--matrix-only", "--shapes=linear", "--steps=3", "--
 
 
 def check_rows(benchmarks, work_dir, options, label, case_overrides):
-    """Runs the rows `options` select; returns the names of those listed (None where none were)."""
+    """Runs the rows `options` select; returns the rows listed, by name, as reported (None where the
+    rows could not be listed or run)."""
     listed = subprocess.run([benchmarks] + options + ["--benchmark_list_tests=true"], capture_output=True,
                             text=True)
     expected = [line for line in listed.stdout.splitlines() if line.startswith("BM_")]
@@ -111,13 +112,29 @@ def check_rows(benchmarks, work_dir, options, label, case_overrides):
     print(f"{label}: {len(expected)} rows listed; {steps} step rows and {kernels} kernel rows checked")
     if steps == 0 or kernels == 0:
         fail(f"{label}: no step row or no kernel row among the rows listed")
-    return expected
+    return {name: rows.get(name) for name in expected}
 
 
-def check_rows_with_setting(benchmarks, work_dir):
+def check_rows_with_setting(benchmarks, work_dir, plain_rows):
     rows = check_rows(benchmarks, work_dir, SET_ROWS, "set_rows", SETTING)
     if rows is None:
         return
+    # The setting reached the solver: the same step row, without the relaxation's phase, moves fewer
+    # model bytes a particle-step than it did with the case file as it is.
+    compared = 0
+    for name, row in rows.items():
+        plain = (plain_rows or {}).get(name)
+        if not name.startswith("BM_Step/") or row is None or plain is None:
+            continue
+        compared += 1
+        if not row.get("model_B_per_particle", 0) < plain.get("model_B_per_particle", 0):
+            fail(f"{name}: model_B_per_particle {row.get('model_B_per_particle')} with --set {SETTING}, "
+                 f"expected less than the {plain.get('model_B_per_particle')} without it")
+        else:
+            print(f"{name}: model_B_per_particle {row['model_B_per_particle']:.1f} with --set {SETTING}, "
+                  f"{plain['model_B_per_particle']:.1f} without it")
+    if compared == 0:
+        fail(f"--set {SETTING}: no step row to compare with the same row without it")
     relaxation = [row for row in rows if "pressure_relaxation" in row]
     if relaxation:
         fail(f"--set {SETTING}: rows of the phase it turns off are listed: {relaxation}")
@@ -150,8 +167,8 @@ def main():
         return 2
     benchmarks, work_dir = sys.argv[1], sys.argv[2]
     os.makedirs(work_dir, exist_ok=True)
-    check_rows(benchmarks, work_dir, SMALL_ROWS, "rows", "none")
-    check_rows_with_setting(benchmarks, work_dir)
+    plain_rows = check_rows(benchmarks, work_dir, SMALL_ROWS, "rows", "none")
+    check_rows_with_setting(benchmarks, work_dir, plain_rows)
     check_option_errors(benchmarks)
     return 1 if failures else 0
 
