@@ -430,7 +430,8 @@ std::vector<std::string> parse_shapes(const std::string& list) {
 // The user's --set assignments: a key a row sets itself (row_settings), or one above or below it,
 // is refused, naming it (--cells and --shapes choose those); the rest must make a valid case,
 // checked here, before any row runs, with the case loader's own error naming the key otherwise.
-void check_case_overrides(const std::vector<std::string>& overrides) {
+// Returns that case (with a row's settings, which leave the physics alone), for register_benchmarks.
+CaseConfig check_case_overrides(const std::vector<std::string>& overrides) {
   auto path_of = [](const std::string& assignment) {
     std::string path = assignment.substr(0, assignment.find('='));
     return path.empty() || path.front() != '/' ? path : path.substr(1);
@@ -458,7 +459,7 @@ void check_case_overrides(const std::vector<std::string>& overrides) {
   RunSpec spec;
   spec.case_overrides = overrides;
   try {
-    cylinder_case(spec);
+    return cylinder_case(spec);
   } catch (const ConfigError& e) {
     throw std::invalid_argument(std::string("mpmflow_benchmarks: --set: ") + e.what());
   }
@@ -469,16 +470,15 @@ void check_case_overrides(const std::vector<std::string>& overrides) {
 // Each row runs a fixed number of whole steps (a kernel row times its phase within them), so a
 // row costs the same whatever share of the step its kernel takes.
 void register_benchmarks(const std::vector<std::string>& shapes, const std::vector<long>& cell_counts,
-                         bool matrix_only, int steps_per_row, const std::vector<std::string>& case_overrides) {
+                         bool matrix_only, int steps_per_row, const std::vector<std::string>& case_overrides,
+                         bool relaxes) {
   benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->Arg(triad_length)->Unit(benchmark::kMillisecond)->UseRealTime();
   const std::vector<Phase> kernels = {Phase::p2g_mass_momentum_force, Phase::g2p_p2g_velocity_momentum,
                                       Phase::g2pd_particle_update,    Phase::particle_move,
                                       Phase::pressure_relaxation,     Phase::time_step};
-  // No row for the relaxation where the case (a --set) turns it off: it has no phase to time. The
-  // rows' own settings leave it alone, so one look at the case serves them all.
-  RunSpec with_overrides;
-  with_overrides.case_overrides = case_overrides;
-  const bool relaxes = cylinder_case(with_overrides).numerics.pressure_relaxation;
+  // No row for the relaxation where the case (a --set) turns it off (`relaxes`, the case as
+  // check_case_overrides loaded it): it has no phase to time. The rows' own settings leave it alone,
+  // so one look at the case serves them all.
   auto add_run = [&](const RunSpec& spec, const std::vector<Phase>& phases) {
     const std::string suffix = "/" + spec.key();
     for (const Phase phase : phases) {
@@ -566,11 +566,12 @@ int main(int argc, char** argv) {
   std::vector<long> cell_counts;
   std::vector<std::string> shape_list;
   int steps = 0;
+  bool relaxes = false;  // whether the case, --set applied, relaxes its pressures
   try {
     steps = mpmflow::parse_steps(steps_text);
     cell_counts = mpmflow::parse_cells(cells);
     shape_list = mpmflow::parse_shapes(shapes);
-    mpmflow::check_case_overrides(case_overrides);
+    relaxes = mpmflow::check_case_overrides(case_overrides).numerics.pressure_relaxation;
   } catch (const std::invalid_argument& e) {
     std::cerr << e.what() << "\n";
     return 2;
@@ -578,7 +579,7 @@ int main(int argc, char** argv) {
   int rest_count = static_cast<int>(rest.size());
   Kokkos::ScopeGuard kokkos(rest_count, rest.data());
   mpmflow::allocations();  // counting from here
-  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, steps, case_overrides);
+  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, steps, case_overrides, relaxes);
   // The context lines above the rows name the precision: the traffic model's bytes follow it.
   benchmark::AddCustomContext("real_t", sizeof(mpmflow::real_t) == sizeof(double) ? "double" : "float");
   // And what --set changed in the case file, for every row ("none": the case file as it is).
