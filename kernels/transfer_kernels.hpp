@@ -1167,6 +1167,15 @@ struct WritesVectorsInLanes<Functor, L,
                             std::void_t<decltype(std::declval<const Functor&>()(index_t(0), LaneVectorOutputs<L>{}))>>
     : std::true_type {};
 
+// A P2GD functor whose component d has its axis-d part alone, G_d = g_d e_d (zeta and eta of eq. 13,
+// the force of an isotropic stress: F_d = g_d dphi/dx_d), marked by pairs_component_with_axis =
+// true. It still writes the other parts, as zeros: the reference traversal adds them.
+template <class Functor, class = void>
+struct PairsComponentWithAxis : std::false_type {};
+template <class Functor>
+struct PairsComponentWithAxis<Functor, std::void_t<decltype(Functor::pairs_component_with_axis)>>
+    : std::integral_constant<bool, Functor::pairs_component_with_axis && Functor::num_components == 2> {};
+
 // P2G and P2GD body in one: F(p) phi_i into the value columns, G(p) . grad phi_i into the vector ones.
 template <class Access, class ValueFunctor, class VectorFunctor>
 struct P2GAndP2GDBody {
@@ -1203,19 +1212,40 @@ struct P2GAndP2GDBody {
   // first version slower than the column by column addition.
   template <int L>
   struct NodeVectorLanes {
+    static constexpr int size = L;
     real_t value[L][W], along_y[L][W], across[L][W];
     // (prepare_lanes: the functors' values and vectors, lane by lane in each component.)
     real_t lane_value[NV][L], lane_vector[ND][2][L];
     index_t counted[L];
   };
+  // ... or, where the vector functor pairs each component with its axis (PairsComponentWithAxis: the
+  // step's force), one node vector a particle: F in the value columns, g_d in vector column d.
+  // Node (a, b) adds it times the factors of column a of the stencil and of row b, column by column
+  // wx[a] wy[b] for the values, gx[a] wy[b] for g_x's column and wx[a] gy[b] for g_y's: a
+  // multiplication and an addition a node, and a third of the stores that make the vectors. The
+  // factors are taken by 0/1 columns (takes_gx, takes_gy; w (1 - t) + g t is w or g exactly), not
+  // comparisons, which GCC made branches of. P2G 0.92-0.95 times as long as with three vectors (the
+  // history, (ab)).
+  static constexpr bool one_node_vector = PairsComponentWithAxis<VectorFunctor>::value;
+  template <int L>
+  struct PairedNodeVectorLanes {
+    static constexpr int size = L;
+    real_t value[L][W];
+    real_t takes_gx[W], takes_gy[W];
+    real_t lane_value[NV][L], lane_vector[ND][2][L];
+    index_t counted[L];
+  };
+  template <int L>
+  using WindowLanes = std::conditional_t<one_node_vector, PairedNodeVectorLanes<L>, NodeVectorLanes<L>>;
   // The functors of a batch of consecutive particles at once, as vector lanes (their divisions 8 at a
   // time with AVX-512; particle by particle they were a quarter of P2G's time), then the node vectors.
   template <int L>
   static constexpr bool prepares_in_lanes =
       into_window && WritesValuesInLanes<ValueFunctor, L>::value && WritesVectorsInLanes<VectorFunctor, L>::value;
-  template <int L>
+  template <class VectorLanes>
   KOKKOS_FORCEINLINE_FUNCTION void prepare_lanes(const ConsecutiveParticles& particle, int count,
-                                                 NodeVectorLanes<L>& lanes) const {
+                                                 VectorLanes& lanes) const {
+    constexpr int L = VectorLanes::size;
     MPMFLOW_VECTORISE
     for (int l = 0; l < count; ++l) {
       lanes.counted[l] = value_functor.values(particle(l), LaneOutputs<L>{&lanes.lane_value[0][l]});
@@ -1235,23 +1265,25 @@ struct P2GAndP2GDBody {
         vector[c][0] = lanes.lane_vector[c][0][l];
         vector[c][1] = lanes.lane_vector[c][1][l];
       }
-      node_vectors(value, vector, lanes.value[l], lanes.along_y[l], lanes.across[l]);
+      node_vectors(value, vector, lanes, l);
     }
+    set_factor_columns(lanes);
   }
   template <int L>
-  using Lanes = std::conditional_t<into_window, NodeVectorLanes<L>, ColumnLanes<L>>;
+  using Lanes = std::conditional_t<into_window, WindowLanes<L>, ColumnLanes<L>>;
   template <int L>
   KOKKOS_FORCEINLINE_FUNCTION void prepare(const index_t p, ColumnLanes<L>& lanes, int l) const {
     value_functor(p, lanes.value[l]);
     vector_functor(p, lanes.vector[l]);
   }
-  template <int L>
-  KOKKOS_FORCEINLINE_FUNCTION void prepare(const index_t p, NodeVectorLanes<L>& lanes, int l) const {
+  template <class VectorLanes>
+  KOKKOS_FORCEINLINE_FUNCTION void prepare(const index_t p, VectorLanes& lanes, int l) const {
     real_t value[NV];
     real_t vector[ND][2];
     value_functor(p, value);
     vector_functor(p, vector);
-    node_vectors(value, vector, lanes.value[l], lanes.along_y[l], lanes.across[l]);
+    node_vectors(value, vector, lanes, l);
+    if (l == 0) set_factor_columns(lanes);
   }
   template <class StencilType, int L>
   KOKKOS_FORCEINLINE_FUNCTION void add_prepared(const StencilType& s, const ColumnLanes<L>& lanes, int l) const {
@@ -1260,6 +1292,27 @@ struct P2GAndP2GDBody {
   template <class StencilType, int L>
   KOKKOS_FORCEINLINE_FUNCTION void add_prepared(const StencilType& s, const NodeVectorLanes<L>& lanes, int l) const {
     add_node_vectors(s, lanes.value[l], lanes.along_y[l], lanes.across[l]);
+  }
+  template <class StencilType, int L>
+  KOKKOS_FORCEINLINE_FUNCTION void add_prepared(const StencilType& s, const PairedNodeVectorLanes<L>& lanes,
+                                                int l) const {
+    constexpr int K = StencilType::width;
+    real_t column_factor[K][W];
+    for (int a = 0; a < K; ++a) {
+      const real_t wx = s.wx[a], gx = s.gx[a];
+      for (int c = 0; c < W; ++c) column_factor[a][c] = wx * (1 - lanes.takes_gx[c]) + gx * lanes.takes_gx[c];
+    }
+    for (int b = 0; b < K; ++b) {
+      real_t row[W];  // the particle's node vector times the row's factors
+      const real_t wy = s.wy[b], gy = s.gy[b];
+      for (int c = 0; c < W; ++c) row[c] = lanes.value[l][c] * (wy * (1 - lanes.takes_gy[c]) + gy * lanes.takes_gy[c]);
+      real_t* const row_nodes = scatter.node(s, 0, b);
+      for (int a = 0; a < K; ++a) {
+        real_t* node = row_nodes + a * W;
+        MPMFLOW_VECTORISE
+        for (int c = 0; c < W; ++c) node[c] += row[c] * column_factor[a][c];
+      }
+    }
   }
   // The same body adding into a thread's window (walk_tiles_staged).
   using staged_body = P2GAndP2GDBody<NodeMajorWindow, ValueFunctor, VectorFunctor>;
@@ -1274,9 +1327,12 @@ struct P2GAndP2GDBody {
     return first_value_component + NV > first_vector_component + ND ? first_value_component + NV
                                                                      : first_vector_component + ND;
   }
+  template <int L>
   KOKKOS_FORCEINLINE_FUNCTION void node_vectors(const real_t (&value)[NV], const real_t (&vector)[ND][2],
-                                                real_t (&node_value)[W], real_t (&along_y)[W],
-                                                real_t (&across)[W]) const {
+                                                NodeVectorLanes<L>& lanes, int l) const {
+    real_t(&node_value)[W] = lanes.value[l];
+    real_t(&along_y)[W] = lanes.along_y[l];
+    real_t(&across)[W] = lanes.across[l];
     for (int c = 0; c < W; ++c) node_value[c] = along_y[c] = across[c] = 0;
     const int fv = first_value_component - scatter.first_component;
     const int fd = first_vector_component - scatter.first_component;
@@ -1285,6 +1341,25 @@ struct P2GAndP2GDBody {
       along_y[fd + c] = vector[c][1];
       across[fd + c] = vector[c][0];
     }
+  }
+  template <int L>
+  KOKKOS_FORCEINLINE_FUNCTION void node_vectors(const real_t (&value)[NV], const real_t (&vector)[ND][2],
+                                                PairedNodeVectorLanes<L>& lanes, int l) const {
+    real_t(&node_value)[W] = lanes.value[l];
+    for (int c = 0; c < W; ++c) node_value[c] = 0;
+    const int fv = first_value_component - scatter.first_component;
+    const int fd = first_vector_component - scatter.first_component;
+    for (int c = 0; c < NV; ++c) node_value[fv + c] = value[c];
+    for (int d = 0; d < ND; ++d) node_value[fd + d] = vector[d][d];
+  }
+  template <int L>
+  KOKKOS_FORCEINLINE_FUNCTION void set_factor_columns(NodeVectorLanes<L>&) const {}
+  template <int L>
+  KOKKOS_FORCEINLINE_FUNCTION void set_factor_columns(PairedNodeVectorLanes<L>& lanes) const {
+    const int fd = first_vector_component - scatter.first_component;
+    for (int c = 0; c < W; ++c) lanes.takes_gx[c] = lanes.takes_gy[c] = 0;
+    lanes.takes_gx[fd] = 1;
+    lanes.takes_gy[fd + 1] = 1;
   }
   template <class StencilType>
   KOKKOS_FORCEINLINE_FUNCTION void add_node_vectors(const StencilType& s, const real_t (&node_value)[W],

@@ -77,6 +77,7 @@ struct Momentum {
 // P2GD(zeta / eta, P, Q, M, rho): the internal force f_i = sum_p (P+Q) (M/rho) grad phi_i (eq. 13).
 struct InternalForce {
   static constexpr int num_components = 2;
+  static constexpr bool pairs_component_with_axis = true;  // (PairsComponentWithAxis)
   RealView specific_energy, viscosity, mass, density;
   real_t gamma;
   // Vectors: an array, or a batch's lanes (LaneVectorOutputs), written as vector[component][axis].
@@ -210,6 +211,7 @@ KOKKOS_INLINE_FUNCTION real_t cell_mean(const NodeFieldsView& sums, index_t c, i
 // The internal force with the cell's mean P + Q: f_i = sum_p (P + Q)_cell (M / rho) grad phi_i.
 struct CellAveragedInternalForce {
   static constexpr int num_components = 2;
+  static constexpr bool pairs_component_with_axis = true;  // (PairsComponentWithAxis)
   RealView mass, density;
   IndexView cell;
   NodeFieldsView cell_sums;

@@ -158,6 +158,20 @@ struct VaryingVectors {  // G_c = M (1 + c + x, 2 - c y): every component differ
   }
 };
 
+// G_0 = (M (1 + x), 0), G_1 = (0, M (2 - y)): each component along its own axis alone, as the step's
+// force (PairsComponentWithAxis), which a window then adds as one node vector a particle.
+struct PairedVectors {
+  static constexpr int num_components = 2;
+  static constexpr bool pairs_component_with_axis = true;
+  RealView mass, x, y;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2][2]) const {
+    v[0][0] = mass(p) * (1 + x(p));
+    v[0][1] = 0;
+    v[1][0] = 0;
+    v[1][1] = mass(p) * (2 - y(p));
+  }
+};
+
 struct NodeColumnsRatio {  // node value = fields(i, 1) / fields(i, 0)
   static constexpr int num_components = 1;
   NodeFieldsView fields;
@@ -896,8 +910,9 @@ void expect_node_columns_match(const NodeFieldsView& actual, const NodeFieldsVie
 // window into the node fields (walk_tiles_staged); with its columns further apart than a window
 // is wide, straight into the node fields (walk_tiles). Either way the reference traversal's sums,
 // to round-off, and nothing in the columns between (TilesOfMovedParticles: consecutive and listed
-// batches; strips and rectangles, the last of them partial).
-template <class Make>
+// batches; strips and rectangles, the last of them partial). Vectors of any direction (three node
+// vectors a particle in a window), or each component along its own axis (one).
+template <class Make, class Vectors>
 void expect_staged_p2g_matches_the_reference(const GridGeometry& grid, int first_vector_column) {
   const TilesOfMovedParticles moved(grid);
   const GridGeometry& g = moved.g;
@@ -905,7 +920,7 @@ void expect_staged_p2g_matches_the_reference(const GridGeometry& grid, int first
   const auto shape = Make::make(g, d.count);
   const auto t = ColouredTraversal<Coloured>::of(g, d);
   const MassAndLinearField values{d.mass, d.where.x, d.where.y};
-  const VaryingVectors vectors{d.mass, d.where.x, d.where.y};
+  const Vectors vectors{d.mass, d.where.x, d.where.y};
   const int columns = first_vector_column + 2;
   NodeFieldsView staged("staged", g.num_nodes(), columns), reference("reference", g.num_nodes(), columns);
   DirectNodeAccess direct{staged};
@@ -916,16 +931,26 @@ void expect_staged_p2g_matches_the_reference(const GridGeometry& grid, int first
   p2g_end(scatter, reference);
   expect_node_columns_match(staged, reference, [&](int k) { return k < 2 || k >= first_vector_column; });
 }
-TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
-  using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearField, VaryingVectors>;
-  static_assert(StagesInWindow<Body>::value, "the step's P2G stages its tiles on CPUs");
+template <class Vectors>
+void expect_staged_p2g_matches_the_reference_for_each_shape() {
   for (const GridGeometry& grid : TilesOfMovedParticles::grids())
     for (int first_vector_column : {2, 3, NodeMajorWindow::width + 1}) {  // in a window (2, 3: a gap), or not
       SCOPED_TRACE(cells_named(grid.cells_x(), grid.cells_y()) + ", column " + std::to_string(first_vector_column));
-      expect_staged_p2g_matches_the_reference<MakeLinear>(grid, first_vector_column);
-      expect_staged_p2g_matches_the_reference<MakeGimp>(grid, first_vector_column);
-      expect_staged_p2g_matches_the_reference<MakeBSpline>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeLinear, Vectors>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeGimp, Vectors>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeBSpline, Vectors>(grid, first_vector_column);
     }
+}
+TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
+  using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearField, VaryingVectors>;
+  static_assert(StagesInWindow<Body>::value, "the step's P2G stages its tiles on CPUs");
+  static_assert(!Body::staged_body::one_node_vector, "vectors of any direction: three node vectors a particle");
+  expect_staged_p2g_matches_the_reference_for_each_shape<VaryingVectors>();
+}
+TEST(ColouredTiles, StagedValuesAndVectorsAlongTheirAxesGiveTheReferenceSums) {
+  using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearField, PairedVectors>;
+  static_assert(Body::staged_body::one_node_vector, "each component along its own axis: one node vector a particle");
+  expect_staged_p2g_matches_the_reference_for_each_shape<PairedVectors>();
 }
 
 // A body that stages its tiles in windows (StagesInWindow) and only counts, for each particle it is
