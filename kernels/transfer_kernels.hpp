@@ -1224,8 +1224,8 @@ struct P2GAndP2GDBody {
   // wx[a] wy[b] for the values, gx[a] wy[b] for g_x's column and wx[a] gy[b] for g_y's: a
   // multiplication and an addition a node, and a third of the stores that make the vectors. The
   // factors are taken by 0/1 columns (takes_gx, takes_gy; w (1 - t) + g t is w or g exactly), not
-  // comparisons, which GCC made branches of. P2G 0.92-0.95 times as long as with three vectors (the
-  // history, (ab)).
+  // comparisons, which GCC made branches of. P2G 0.92-0.95 times as long as with three vectors
+  // (docs/performance_history.md, "P2G's force as one node vector a particle").
   static constexpr bool one_node_vector = PairsComponentWithAxis<VectorFunctor>::value;
   template <int L>
   struct PairedNodeVectorLanes {
