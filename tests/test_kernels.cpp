@@ -159,17 +159,34 @@ struct VaryingVectors {  // G_c = M (1 + c + x, 2 - c y): every component differ
 };
 
 // G_0 = (M (1 + x), 0), G_1 = (0, M (2 - y)): each component along its own axis alone, as the step's
-// force (PairsComponentWithAxis), which a window then adds as one node vector a particle.
+// force (PairsComponentWithAxis), which a window then adds as one node vector a particle. Written
+// through a template, as the step's functors are, so that a batch of consecutive particles makes
+// them in vector lanes (WritesVectorsInLanes).
 struct PairedVectors {
   static constexpr int num_components = 2;
   static constexpr bool pairs_component_with_axis = true;
   RealView mass, x, y;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2][2]) const {
+  template <class Vectors>
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, Vectors&& v) const {
     v[0][0] = mass(p) * (1 + x(p));
     v[0][1] = 0;
     v[1][0] = 0;
     v[1][1] = mass(p) * (2 - y(p));
   }
+};
+// MassAndLinearField, written through a template as the step's values are (WritesValuesInLanes); it
+// counts no particle.
+struct MassAndLinearFieldInLanes {
+  static constexpr int num_components = 2;
+  RealView mass, x, y;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2]) const { values(p, v); }
+  template <class Values>
+  KOKKOS_INLINE_FUNCTION index_t values(index_t p, Values&& v) const {
+    v[0] = mass(p);
+    v[1] = mass(p) * (3.0 - 2.0 * x(p) + 0.75 * y(p));
+    return 0;
+  }
+  KOKKOS_INLINE_FUNCTION void add_count(index_t) const {}
 };
 
 struct NodeColumnsRatio {  // node value = fields(i, 1) / fields(i, 0)
@@ -912,14 +929,14 @@ void expect_node_columns_match(const NodeFieldsView& actual, const NodeFieldsVie
 // to round-off, and nothing in the columns between (TilesOfMovedParticles: consecutive and listed
 // batches; strips and rectangles, the last of them partial). Vectors of any direction (three node
 // vectors a particle in a window), or each component along its own axis (one).
-template <class Make, class Vectors>
+template <class Make, class Values, class Vectors>
 void expect_staged_p2g_matches_the_reference(const GridGeometry& grid, int first_vector_column) {
   const TilesOfMovedParticles moved(grid);
   const GridGeometry& g = moved.g;
   const DeviceParticles& d = moved.d;
   const auto shape = Make::make(g, d.count);
   const auto t = ColouredTraversal<Coloured>::of(g, d);
-  const MassAndLinearField values{d.mass, d.where.x, d.where.y};
+  const Values values{d.mass, d.where.x, d.where.y};
   const Vectors vectors{d.mass, d.where.x, d.where.y};
   const int columns = first_vector_column + 2;
   NodeFieldsView staged("staged", g.num_nodes(), columns), reference("reference", g.num_nodes(), columns);
@@ -931,26 +948,29 @@ void expect_staged_p2g_matches_the_reference(const GridGeometry& grid, int first
   p2g_end(scatter, reference);
   expect_node_columns_match(staged, reference, [&](int k) { return k < 2 || k >= first_vector_column; });
 }
-template <class Vectors>
+template <class Values, class Vectors>
 void expect_staged_p2g_matches_the_reference_for_each_shape() {
   for (const GridGeometry& grid : TilesOfMovedParticles::grids())
     for (int first_vector_column : {2, 3, NodeMajorWindow::width + 1}) {  // in a window (2, 3: a gap), or not
       SCOPED_TRACE(cells_named(grid.cells_x(), grid.cells_y()) + ", column " + std::to_string(first_vector_column));
-      expect_staged_p2g_matches_the_reference<MakeLinear, Vectors>(grid, first_vector_column);
-      expect_staged_p2g_matches_the_reference<MakeGimp, Vectors>(grid, first_vector_column);
-      expect_staged_p2g_matches_the_reference<MakeBSpline, Vectors>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeLinear, Values, Vectors>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeGimp, Values, Vectors>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeBSpline, Values, Vectors>(grid, first_vector_column);
     }
 }
 TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
   using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearField, VaryingVectors>;
   static_assert(StagesInWindow<Body>::value, "the step's P2G stages its tiles on CPUs");
   static_assert(!Body::staged_body::one_node_vector, "vectors of any direction: three node vectors a particle");
-  expect_staged_p2g_matches_the_reference_for_each_shape<VaryingVectors>();
+  expect_staged_p2g_matches_the_reference_for_each_shape<MassAndLinearField, VaryingVectors>();
 }
+// ... and with each vector component along its own axis, one node vector a particle, made in
+// vector lanes for a batch of consecutive particles and particle by particle for a listed one.
 TEST(ColouredTiles, StagedValuesAndVectorsAlongTheirAxesGiveTheReferenceSums) {
-  using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearField, PairedVectors>;
+  using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearFieldInLanes, PairedVectors>;
   static_assert(Body::staged_body::one_node_vector, "each component along its own axis: one node vector a particle");
-  expect_staged_p2g_matches_the_reference_for_each_shape<PairedVectors>();
+  static_assert(Body::staged_body::prepares_in_lanes<stencil_batch_size>, "a consecutive batch's in vector lanes");
+  expect_staged_p2g_matches_the_reference_for_each_shape<MassAndLinearFieldInLanes, PairedVectors>();
 }
 
 // A body that stages its tiles in windows (StagesInWindow) and only counts, for each particle it is
