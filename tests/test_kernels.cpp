@@ -179,7 +179,7 @@ struct PairedVectors {
 struct MassAndLinearFieldInLanes {
   static constexpr int num_components = 2;
   RealView mass, x, y;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2]) const { values(p, v); }
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2]) const { add_count(values(p, v)); }
   template <class Values>
   KOKKOS_INLINE_FUNCTION index_t values(index_t p, Values&& v) const {
     v[0] = mass(p);
@@ -966,10 +966,19 @@ TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
 }
 // ... and with each vector component along its own axis, one node vector a particle, made in
 // vector lanes for a batch of consecutive particles and particle by particle for a listed one.
+// (Whether it makes them in lanes is asked where the walks are the CPU's only: a GPU build, which
+// never calls the lanes' functions, would otherwise declare them unused.)
+template <class Body>
+constexpr bool prepares_in_lanes_on_cpus() {
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+    return Body::template prepares_in_lanes<stencil_batch_size>;
+  else
+    return true;
+}
 TEST(ColouredTiles, StagedValuesAndVectorsAlongTheirAxesGiveTheReferenceSums) {
   using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearFieldInLanes, PairedVectors>;
   static_assert(Body::staged_body::one_node_vector, "each component along its own axis: one node vector a particle");
-  static_assert(Body::staged_body::prepares_in_lanes<stencil_batch_size>, "a consecutive batch's in vector lanes");
+  static_assert(prepares_in_lanes_on_cpus<Body::staged_body>(), "a consecutive batch's in vector lanes");
   expect_staged_p2g_matches_the_reference_for_each_shape<MassAndLinearFieldInLanes, PairedVectors>();
 }
 
