@@ -1239,9 +1239,12 @@ struct P2GAndP2GDBody {
   using WindowLanes = std::conditional_t<one_node_vector, PairedNodeVectorLanes<L>, NodeVectorLanes<L>>;
   // The functors of a batch of consecutive particles at once, as vector lanes (their divisions 8 at a
   // time with AVX-512; particle by particle they were a quarter of P2G's time), then the node vectors.
+  // (A conjunction: a body not into a window does not ask the functors about lanes, whose versions
+  // for lanes a GPU build then never calls, and nvcc warned of them as declared and unused.)
   template <int L>
   static constexpr bool prepares_in_lanes =
-      into_window && WritesValuesInLanes<ValueFunctor, L>::value && WritesVectorsInLanes<VectorFunctor, L>::value;
+      std::conjunction<std::integral_constant<bool, into_window>, WritesValuesInLanes<ValueFunctor, L>,
+                       WritesVectorsInLanes<VectorFunctor, L>>::value;
   template <class VectorLanes>
   KOKKOS_FORCEINLINE_FUNCTION void prepare_lanes(const ConsecutiveParticles& particle, int count,
                                                  VectorLanes& lanes) const {
