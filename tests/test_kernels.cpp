@@ -126,13 +126,20 @@ struct MakeBSpline {
 real_t linear_field(real_t x, real_t y) { return 3.0 - 2.0 * x + 0.75 * y; }
 
 // Particle functors used below.
-struct MassAndLinearField {  // M, M f(X)
+// M, M f(X). Written through a template, as the step's values are (WritesValuesInLanes), so that a
+// P2G body whose vectors can be too makes a batch of consecutive particles' in vector lanes; it
+// counts no particle.
+struct MassAndLinearField {
   static constexpr int num_components = 2;
   RealView mass, x, y;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2]) const {
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2]) const { add_count(values(p, v)); }
+  template <class Values>
+  KOKKOS_INLINE_FUNCTION index_t values(index_t p, Values&& v) const {
     v[0] = mass(p);
     v[1] = mass(p) * (3.0 - 2.0 * x(p) + 0.75 * y(p));
+    return 0;
   }
+  KOKKOS_INLINE_FUNCTION void add_count(index_t) const {}
 };
 
 struct ConstantStressTimesVolume {  // G = s M (1, 0) and s M (0, 1), as the internal force
@@ -173,20 +180,6 @@ struct PairedVectors {
     v[1][0] = 0;
     v[1][1] = mass(p) * (2 - y(p));
   }
-};
-// MassAndLinearField, written through a template as the step's values are (WritesValuesInLanes); it
-// counts no particle.
-struct MassAndLinearFieldInLanes {
-  static constexpr int num_components = 2;
-  RealView mass, x, y;
-  KOKKOS_INLINE_FUNCTION void operator()(index_t p, real_t (&v)[2]) const { add_count(values(p, v)); }
-  template <class Values>
-  KOKKOS_INLINE_FUNCTION index_t values(index_t p, Values&& v) const {
-    v[0] = mass(p);
-    v[1] = mass(p) * (3.0 - 2.0 * x(p) + 0.75 * y(p));
-    return 0;
-  }
-  KOKKOS_INLINE_FUNCTION void add_count(index_t) const {}
 };
 
 struct NodeColumnsRatio {  // node value = fields(i, 1) / fields(i, 0)
@@ -929,14 +922,14 @@ void expect_node_columns_match(const NodeFieldsView& actual, const NodeFieldsVie
 // to round-off, and nothing in the columns between (TilesOfMovedParticles: consecutive and listed
 // batches; strips and rectangles, the last of them partial). Vectors of any direction (three node
 // vectors a particle in a window), or each component along its own axis (one).
-template <class Make, class Values, class Vectors>
+template <class Make, class Vectors>
 void expect_staged_p2g_matches_the_reference(const GridGeometry& grid, int first_vector_column) {
   const TilesOfMovedParticles moved(grid);
   const GridGeometry& g = moved.g;
   const DeviceParticles& d = moved.d;
   const auto shape = Make::make(g, d.count);
   const auto t = ColouredTraversal<Coloured>::of(g, d);
-  const Values values{d.mass, d.where.x, d.where.y};
+  const MassAndLinearField values{d.mass, d.where.x, d.where.y};
   const Vectors vectors{d.mass, d.where.x, d.where.y};
   const int columns = first_vector_column + 2;
   NodeFieldsView staged("staged", g.num_nodes(), columns), reference("reference", g.num_nodes(), columns);
@@ -948,21 +941,21 @@ void expect_staged_p2g_matches_the_reference(const GridGeometry& grid, int first
   p2g_end(scatter, reference);
   expect_node_columns_match(staged, reference, [&](int k) { return k < 2 || k >= first_vector_column; });
 }
-template <class Values, class Vectors>
+template <class Vectors>
 void expect_staged_p2g_matches_the_reference_for_each_shape() {
   for (const GridGeometry& grid : TilesOfMovedParticles::grids())
     for (int first_vector_column : {2, 3, NodeMajorWindow::width + 1}) {  // in a window (2, 3: a gap), or not
       SCOPED_TRACE(cells_named(grid.cells_x(), grid.cells_y()) + ", column " + std::to_string(first_vector_column));
-      expect_staged_p2g_matches_the_reference<MakeLinear, Values, Vectors>(grid, first_vector_column);
-      expect_staged_p2g_matches_the_reference<MakeGimp, Values, Vectors>(grid, first_vector_column);
-      expect_staged_p2g_matches_the_reference<MakeBSpline, Values, Vectors>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeLinear, Vectors>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeGimp, Vectors>(grid, first_vector_column);
+      expect_staged_p2g_matches_the_reference<MakeBSpline, Vectors>(grid, first_vector_column);
     }
 }
 TEST(ColouredTiles, StagedValuesAndVectorsGiveTheReferenceSums) {
   using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearField, VaryingVectors>;
   static_assert(StagesInWindow<Body>::value, "the step's P2G stages its tiles on CPUs");
   static_assert(!Body::staged_body::one_node_vector, "vectors of any direction: three node vectors a particle");
-  expect_staged_p2g_matches_the_reference_for_each_shape<MassAndLinearField, VaryingVectors>();
+  expect_staged_p2g_matches_the_reference_for_each_shape<VaryingVectors>();
 }
 // ... and with each vector component along its own axis, one node vector a particle, made in
 // vector lanes for a batch of consecutive particles and particle by particle for a listed one.
@@ -976,10 +969,10 @@ constexpr bool prepares_in_lanes_on_cpus() {
     return true;
 }
 TEST(ColouredTiles, StagedValuesAndVectorsAlongTheirAxesGiveTheReferenceSums) {
-  using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearFieldInLanes, PairedVectors>;
+  using Body = P2GAndP2GDBody<DirectNodeAccess, MassAndLinearField, PairedVectors>;
   static_assert(Body::staged_body::one_node_vector, "each component along its own axis: one node vector a particle");
   static_assert(prepares_in_lanes_on_cpus<Body::staged_body>(), "a consecutive batch's in vector lanes");
-  expect_staged_p2g_matches_the_reference_for_each_shape<MassAndLinearFieldInLanes, PairedVectors>();
+  expect_staged_p2g_matches_the_reference_for_each_shape<PairedVectors>();
 }
 
 // A body that stages its tiles in windows (StagesInWindow) and only counts, for each particle it is
