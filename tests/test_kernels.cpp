@@ -343,30 +343,72 @@ bool is_inner_node(const GridGeometry& g, int i, int j, int margin) {
   return i >= margin && j >= margin && i <= g.nodes_x - 1 - margin && j <= g.nodes_y - 1 - margin;
 }
 
-// True when every node the particle's stencil weights is an inner node.
+// Each particle's stencil (its nodes, weights and gradients), evaluated where the shape's Views
+// live (on the GPU in a GPU build: a GIMP shape's stretches are device Views, which the host may
+// not read) and copied to the host for the checks.
+using StencilNodes = Kokkos::View<index_t**, MemorySpace>;
+using StencilValues = Kokkos::View<real_t**, MemorySpace>;
 template <class Shape>
-bool stencil_is_inner(const Shape& shape, int margin, index_t p, index_t cell, real_t x, real_t y) {
-  const auto s = shape(p, cell, x, y);
-  for (int a = 0; a < Shape::stencil_size; ++a)
-    if (s.weight(a) != 0 &&
-        !is_inner_node(shape.grid.geometry, s.node(a) % shape.grid.geometry.nodes_x, s.node(a) / shape.grid.geometry.nodes_x, margin))
-      return false;
+struct HostStencils {
+  StencilNodes::HostMirror node;
+  StencilValues::HostMirror weight, grad_x, grad_y;
+};
+template <class Shape>
+struct EvaluateStencils {
+  Shape shape;
+  ParticleLocations where;
+  StencilNodes node;
+  StencilValues weight, grad_x, grad_y;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t p) const {
+    const auto s = shape(p, where.cell(p), where.x(p), where.y(p));
+    for (int a = 0; a < Shape::stencil_size; ++a) {
+      node(p, a) = s.node(a);
+      weight(p, a) = s.weight(a);
+      grad_x(p, a) = s.grad_x(a);
+      grad_y(p, a) = s.grad_y(a);
+    }
+  }
+};
+template <class Shape>
+HostStencils<Shape> stencils_on_host(const Shape& shape, const ParticleLocations& where, index_t count) {
+  constexpr int S = Shape::stencil_size;
+  EvaluateStencils<Shape> evaluate{shape,
+                                   where,
+                                   StencilNodes("stencil_node", count, S),
+                                   StencilValues("stencil_weight", count, S),
+                                   StencilValues("stencil_grad_x", count, S),
+                                   StencilValues("stencil_grad_y", count, S)};
+  Kokkos::parallel_for("test_stencils", Kokkos::RangePolicy<ExecutionSpace>(0, count), evaluate);
+  return {Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), evaluate.node),
+          Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), evaluate.weight),
+          Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), evaluate.grad_x),
+          Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), evaluate.grad_y)};
+}
+
+// True when every node particle p's stencil weights is an inner node.
+template <class Shape>
+bool stencil_is_inner(const HostStencils<Shape>& stencils, const GridGeometry& g, int margin, index_t p) {
+  for (int a = 0; a < Shape::stencil_size; ++a) {
+    const index_t node = stencils.node(p, a);
+    if (stencils.weight(p, a) != 0 && !is_inner_node(g, node % g.nodes_x, node / g.nodes_x, margin)) return false;
+  }
   return true;
 }
 
 TYPED_TEST(TransferKernels, PartitionOfUnityAndZeroGradientSum) {
   const GridGeometry g = test_grid();
-  const HostParticles p = random_particles(g, 500, 1);
-  const auto shape = TypeParam::MakeShape::make(g, 500);
-  for (size_t k = 0; k < p.x.size(); ++k) {
-    const auto s = shape(k, g.cell_of(p.x[k], p.y[k]), p.x[k], p.y[k]);
+  const DeviceParticles d = to_device(g, random_particles(g, 500, 1));
+  const auto shape = TypeParam::MakeShape::make(g, d.count);
+  using Shape = std::remove_const_t<decltype(shape)>;
+  const HostStencils<Shape> s = stencils_on_host(shape, d.where, d.count);
+  for (index_t k = 0; k < d.count; ++k) {
     double sum = 0, gx = 0, gy = 0;
-    for (int a = 0; a < decltype(shape)::stencil_size; ++a) {
-      EXPECT_GE(s.weight(a), -1e-15);
-      EXPECT_LE(s.weight(a), 1 + 1e-15);
-      sum += s.weight(a);
-      gx += s.grad_x(a);
-      gy += s.grad_y(a);
+    for (int a = 0; a < Shape::stencil_size; ++a) {
+      EXPECT_GE(s.weight(k, a), -1e-15);
+      EXPECT_LE(s.weight(k, a), 1 + 1e-15);
+      sum += s.weight(k, a);
+      gx += s.grad_x(k, a);
+      gy += s.grad_y(k, a);
     }
     EXPECT_NEAR(sum, 1.0, 1e-14);
     EXPECT_NEAR(gx, 0.0, 1e-12);
@@ -1279,10 +1321,10 @@ TYPED_TEST(TransferKernels, P2GThenG2PReproducesLinearFieldsExactly) {
   auto hv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), value);
   auto hx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.x);
   auto hy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.y);
-  auto hc = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.cell);
+  const auto stencils = stencils_on_host(shape, d.where, d.count);
   int checked = 0;
   for (index_t k = 0; k < d.count; ++k) {
-    if (!stencil_is_inner(shape, margin, k, hc(k), hx(k), hy(k))) continue;
+    if (!stencil_is_inner(stencils, g, margin, k)) continue;
     EXPECT_NEAR(hv(k), linear_field(hx(k), hy(k)), 1e-13);
     ++checked;
   }
