@@ -38,7 +38,8 @@ struct RunSummary {
   std::string stop_checkpoint;
 };
 
-// Throws ConfigError when the case asks for something this build cannot do (output without HDF5).
+// Throws ConfigError when the case asks for something this build cannot do (output without HDF5;
+// the duplicated P2G on a GPU).
 void check_case_supported(const CaseConfig& config);
 
 // Runs the case to its end time (or max_steps), writing outputs as configured. Reports go to `log`

@@ -8,9 +8,11 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "build_commit.hpp"
+#include "kernels/types.hpp"
 #ifdef MPMFLOW_HAVE_HDF5
 #include "hdf5_io.hpp"
 #endif
@@ -344,6 +346,21 @@ TEST_F(CommandLine, OutputRequestWithoutHdf5IsRefused) {
   EXPECT_NE(r.output.find("final: mass"), std::string::npos);
 }
 #endif
+
+// The duplicated P2G keeps a copy of the grid for every thread that may run at once: refused on a
+// GPU build, naming the key and what it takes instead; run on a CPU build.
+TEST_F(CommandLine, TheDuplicatedP2GIsRefusedOnGpusOnly) {
+  write_case("case.json", sod_text_);
+  const std::string arguments = "run case.json --set numerics/p2g=duplicated --set output/snapshots=0";
+  if (!std::is_same<mpmflow::MemorySpace, Kokkos::HostSpace>::value) {
+    expect_rejected(arguments, "case.json: /numerics/p2g: \"duplicated\" keeps a copy of the grid for each GPU "
+                               "thread, and this mpmflow runs on a GPU; expected \"automatic\"");
+  } else {
+    const CommandResult r = run_mpmflow(arguments + " --output out", dir_);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find("final: mass"), std::string::npos) << r.output;
+  }
+}
 
 // A geometry error is a case-file error: exit 2, the message, nothing written.
 TEST_F(CommandLine, BadGeometryIsRejectedBeforeAnythingIsWritten) {
