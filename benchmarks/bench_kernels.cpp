@@ -585,6 +585,9 @@ int main(int argc, char** argv) {
   mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, steps, case_overrides, relaxes);
   // The context lines above the rows name the precision: the traffic model's bytes follow it.
   benchmark::AddCustomContext("real_t", sizeof(mpmflow::real_t) == sizeof(double) ? "double" : "float");
+  // And the back-end and how many threads it runs at once (benchmarks/scaling_study.py's title).
+  benchmark::AddCustomContext("execution_space", mpmflow::ExecutionSpace::name());
+  benchmark::AddCustomContext("concurrency", std::to_string(mpmflow::ExecutionSpace().concurrency()));
   // And what --set changed in the case file, for every row ("none": the case file as it is).
   std::string settings;
   for (const std::string& assignment : case_overrides) settings += (settings.empty() ? "" : " ") + assignment;

@@ -185,6 +185,23 @@ def machine_description():
     return "%s, %d cores" % (model, os.cpu_count() or 0)
 
 
+def run_description(json_path, machine):
+    """What ran the rows, for the title: `machine` where given (--machine, e.g. for a replot on
+    another machine); else the back-end the benchmark recorded in its context (runs before
+    2026-12-04 recorded none: OpenMP) with its threads, on this machine's CPU for a host back-end."""
+    if machine:
+        return machine
+    with open(json_path) as f:
+        context = json.load(f).get("context", {})
+    space = context.get("execution_space", "OpenMP")
+    threads = context.get("concurrency", os.environ.get("OMP_NUM_THREADS", "all"))
+    if space in ("OpenMP", "Threads"):
+        return "%s (%s threads) on %s" % (space, threads, machine_description())
+    if space == "Serial":
+        return "Serial on " + machine_description()
+    return space  # a GPU: the benchmark does not name the device
+
+
 def main():
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--cells", default="1e4,3e4,1e5,3e5", help="grid sizes (about this many cells)")
@@ -194,6 +211,8 @@ def main():
     p.add_argument("--binary", default=os.path.join(ROOT, "build", "openmp", "bin", "mpmflow_benchmarks"))
     p.add_argument("--output", default=os.path.join(ROOT, "benchmarks", "results"))
     p.add_argument("--replot", action="store_true", help="only plot the existing scaling_study.json")
+    p.add_argument("--machine", help="the back-end and machine the title names (default: the back-end the "
+                                     "benchmark recorded, on this machine's CPU for a host back-end)")
     args = p.parse_args()
 
     os.makedirs(args.output, exist_ok=True)
@@ -210,10 +229,10 @@ def main():
     csv_path = os.path.join(args.output, name + ".csv")
     write_csv(rows, csv_path + ".tmp")
     os.replace(csv_path + ".tmp", csv_path)
-    threads = os.environ.get("OMP_NUM_THREADS", "all")
     png_path = os.path.join(args.output, name + ".png")
-    plot(rows, png_path, "mpmflow kernel scaling, Mach 3 cylinder, %s shape, OpenMP (%s threads) on %s"
-         % ({"gimp": "GIMP", "bspline": "B-spline"}.get(args.shape, args.shape), threads, machine_description()))
+    plot(rows, png_path, "mpmflow kernel scaling, Mach 3 cylinder, %s shape, %s"
+         % ({"gimp": "GIMP", "bspline": "B-spline"}.get(args.shape, args.shape),
+            run_description(json_path, args.machine)))
     print("wrote", csv_path, "and", png_path)
 
 

@@ -48,9 +48,13 @@ def check_scaling_study(benchmarks, source_dir, work_dir):
         return
     name = os.path.join(out, "scaling_study_linear")
     with open(name + ".json") as f:
-        errors = [b["name"] for b in json.load(f)["benchmarks"] if b.get("error_occurred")]
+        report = json.load(f)
+    errors = [b["name"] for b in report["benchmarks"] if b.get("error_occurred")]
     if errors:
         fail(f"scaling_study.py: rows with errors: {errors}")
+    # The plot's title names the back-end the benchmark recorded.
+    if not report["context"].get("execution_space"):
+        fail("scaling_study.py: the benchmark's context names no execution_space")
     with open(name + ".csv") as f:
         rows = list(csv.DictReader(f))
     runs = {(r["cells"], r["ppc"], r["reordered"]) for r in rows}
