@@ -348,8 +348,7 @@ bool is_inner_node(const GridGeometry& g, int i, int j, int margin) {
 // not read) and copied to the host for the checks.
 using StencilNodes = Kokkos::View<index_t**, MemorySpace>;
 using StencilValues = Kokkos::View<real_t**, MemorySpace>;
-template <class Shape>
-struct HostStencils {
+struct HostStencils {  // (particle, stencil entry)
   StencilNodes::HostMirror node;
   StencilValues::HostMirror weight, grad_x, grad_y;
 };
@@ -370,7 +369,7 @@ struct EvaluateStencils {
   }
 };
 template <class Shape>
-HostStencils<Shape> stencils_on_host(const Shape& shape, const ParticleLocations& where, index_t count) {
+HostStencils stencils_on_host(const Shape& shape, const ParticleLocations& where, index_t count) {
   constexpr int S = Shape::stencil_size;
   EvaluateStencils<Shape> evaluate{shape,
                                    where,
@@ -386,9 +385,8 @@ HostStencils<Shape> stencils_on_host(const Shape& shape, const ParticleLocations
 }
 
 // True when every node particle p's stencil weights is an inner node.
-template <class Shape>
-bool stencil_is_inner(const HostStencils<Shape>& stencils, const GridGeometry& g, int margin, index_t p) {
-  for (int a = 0; a < Shape::stencil_size; ++a) {
+bool stencil_is_inner(const HostStencils& stencils, const GridGeometry& g, int margin, index_t p) {
+  for (size_t a = 0; a < stencils.node.extent(1); ++a) {
     const index_t node = stencils.node(p, a);
     if (stencils.weight(p, a) != 0 && !is_inner_node(g, node % g.nodes_x, node / g.nodes_x, margin)) return false;
   }
@@ -400,7 +398,7 @@ TYPED_TEST(TransferKernels, PartitionOfUnityAndZeroGradientSum) {
   const DeviceParticles d = to_device(g, random_particles(g, 500, 1));
   const auto shape = TypeParam::MakeShape::make(g, d.count);
   using Shape = std::remove_const_t<decltype(shape)>;
-  const HostStencils<Shape> s = stencils_on_host(shape, d.where, d.count);
+  const HostStencils s = stencils_on_host(shape, d.where, d.count);
   for (index_t k = 0; k < d.count; ++k) {
     double sum = 0, gx = 0, gy = 0;
     for (int a = 0; a < Shape::stencil_size; ++a) {
