@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <map>
+#include <mutex>
 
 namespace mpmflow {
 
@@ -44,6 +45,7 @@ class AllocationTracker {
   }
   static void on_allocate(Kokkos_Profiling_SpaceHandle, const char*, const void* ptr, std::uint64_t size) {
     AllocationTracker& t = *installed();
+    const std::lock_guard<std::mutex> lock(t.mutex_);
     if (t.paused) {
       t.uncounted_[ptr] = size;
       return;
@@ -54,6 +56,7 @@ class AllocationTracker {
   }
   static void on_deallocate(Kokkos_Profiling_SpaceHandle, const char*, const void* ptr, std::uint64_t size) {
     AllocationTracker& t = *installed();
+    const std::lock_guard<std::mutex> lock(t.mutex_);
     if (t.uncounted_.erase(ptr) > 0) return;
     const auto it = t.live_.find(ptr);
     t.current_ -= it != t.live_.end() ? static_cast<long long>(it->second) : static_cast<long long>(size);
@@ -62,6 +65,10 @@ class AllocationTracker {
 
   std::map<const void*, std::uint64_t> live_, uncounted_;
   long long current_ = 0, peak_ = 0;
+  // The callbacks come from whichever thread allocates: Kokkos' OpenMP back-end has its threads
+  // allocate their own scratch ("[unlabeled]"), two at once was seen, and two insertions into
+  // live_ at once had corrupted the heap now and then.
+  std::mutex mutex_;
 };
 
 }  // namespace mpmflow
