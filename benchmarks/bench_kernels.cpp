@@ -59,6 +59,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <iostream>
 #include <map>
 #include <memory>
@@ -326,7 +327,27 @@ void BM_Kernel(benchmark::State& state, RunSpec spec, Phase phase) {
 }
 
 // The whole step (time step, all phases, reordering when due).
-void BM_Step(benchmark::State& state, RunSpec spec) {
+// The allocations live at the run's peak, by label, in bytes a particle, largest first (on stderr,
+// beside the row's line): where peak_alloc_B_per_particle goes.
+void print_peak_by_label(const Run& run, double particles) {
+  std::vector<std::pair<long long, std::string>> entries;
+  long long total = 0;
+  for (const auto& [label, bytes] : allocations().peak_by_label()) {
+    entries.emplace_back(bytes, label);
+    total += bytes;
+  }
+  std::sort(entries.rbegin(), entries.rend());
+  std::fprintf(stderr, "peak allocations of BM_Step/%s: %.1f B a particle (live before the run: %.1f)\n",
+               run.spec.key().c_str(), double(total) / particles, double(run.baseline_bytes) / particles);
+  int small = 0;  // under 0.01 B a particle: counted, not listed
+  for (const auto& [bytes, label] : entries) {
+    if (std::fabs(double(bytes)) / particles < 0.01) ++small;
+    else std::fprintf(stderr, "  %10.2f  %s\n", double(bytes) / particles, label.c_str());
+  }
+  if (small > 0) std::fprintf(stderr, "  (%d more labels under 0.01 B a particle each)\n", small);
+}
+
+void BM_Step(benchmark::State& state, RunSpec spec, bool memory_breakdown) {
   Run& run = run_for(spec);
   Solver& solver = *run.solver;
   solver.timers() = PhaseTimers();
@@ -367,6 +388,7 @@ void BM_Step(benchmark::State& state, RunSpec spec) {
   state.counters["particle_B_per_particle"] = double(memory.particle_bytes) / solver.particles().count;
   state.counters["grid_B_per_node"] = double(memory.grid_bytes + memory.scatter_copy_bytes) / run.nodes;
   state.SetLabel(label_of(run));
+  if (memory_breakdown) print_peak_by_label(run, solver.particles().count);
 }
 
 // The items of a comma-separated list.
@@ -471,8 +493,8 @@ CaseConfig check_case_overrides(const std::vector<std::string>& overrides) {
 // Each row runs a fixed number of whole steps (a kernel row times its phase within them), so a
 // row costs the same whatever share of the step its kernel takes.
 void register_benchmarks(const std::vector<std::string>& shapes, const std::vector<long>& cell_counts,
-                         bool matrix_only, int steps_per_row, const std::vector<std::string>& case_overrides,
-                         bool relaxes) {
+                         bool matrix_only, bool memory_breakdown, int steps_per_row,
+                         const std::vector<std::string>& case_overrides, bool relaxes) {
   benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->Arg(triad_length)->Unit(benchmark::kMillisecond)->UseRealTime();
   const std::vector<Phase> kernels = {Phase::p2g_mass_momentum_force, Phase::g2p_p2g_velocity_momentum,
                                       Phase::g2pd_particle_update,    Phase::particle_move,
@@ -490,7 +512,7 @@ void register_benchmarks(const std::vector<std::string>& shapes, const std::vect
           ->UseManualTime()
           ->Iterations(steps_per_row);
     }
-    benchmark::RegisterBenchmark(("BM_Step" + suffix).c_str(), BM_Step, spec)
+    benchmark::RegisterBenchmark(("BM_Step" + suffix).c_str(), BM_Step, spec, memory_breakdown)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()
         ->Iterations(steps_per_row);
@@ -536,13 +558,14 @@ void register_benchmarks(const std::vector<std::string>& shapes, const std::vect
 //   --cells=LIST    grid sizes of the kernel matrix, e.g. --cells=1e4,3e4,1e5 (default 1e4,1e5)
 //   --shapes=LIST   shape functions of the kernel matrix, e.g. --shapes=gimp,linear (default gimp)
 //   --matrix-only   only the matrix (grid sizes x ppc x ordering), not the target-size variants
+//   --memory-breakdown  after each step row, the allocations at its peak by label (on stderr)
 //   --steps=N       steps per row (default 20)
 //   --set PATH=VALUE  (or --set=PATH=VALUE; repeatable) a case-file setting for every row, as
 //                   `mpmflow run --set` takes it, e.g. --set numerics/pressure_relaxation=false
 int main(int argc, char** argv) {
   mpmflow::reuse_freed_host_memory();  // as the solver's executable does (host_memory.hpp)
   std::string cells = "1e4,1e5", shapes = "gimp", steps_text = "20";
-  bool matrix_only = false;
+  bool matrix_only = false, memory_breakdown = false;
   std::vector<std::string> case_overrides;
   std::vector<char*> rest;
   for (int k = 0; k < argc; ++k) {
@@ -563,6 +586,7 @@ int main(int argc, char** argv) {
     if (arg.rfind("--cells=", 0) == 0) cells = arg.substr(8);
     else if (arg.rfind("--shapes=", 0) == 0) shapes = arg.substr(9);
     else if (arg == "--matrix-only") matrix_only = true;
+    else if (arg == "--memory-breakdown") memory_breakdown = true;
     else if (arg.rfind("--steps=", 0) == 0) steps_text = arg.substr(8);
     else rest.push_back(argv[k]);
   }
@@ -582,7 +606,7 @@ int main(int argc, char** argv) {
   int rest_count = static_cast<int>(rest.size());
   Kokkos::ScopeGuard kokkos(rest_count, rest.data());
   mpmflow::allocations();  // counting from here
-  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, steps, case_overrides, relaxes);
+  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, memory_breakdown, steps, case_overrides, relaxes);
   // The context lines above the rows name the precision: the traffic model's bytes follow it.
   benchmark::AddCustomContext("real_t", sizeof(mpmflow::real_t) == sizeof(double) ? "double" : "float");
   // And the back-end and how many threads it runs at once (benchmarks/scaling_study.py's title).

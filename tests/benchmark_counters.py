@@ -2,7 +2,8 @@
 """ctest: the benchmark program (benchmarks/bench_kernels.cpp) runs the rows of its kernel matrix at
 a small size and reports, for each, the counters the README's Benchmarks section names, finite and
 consistent with each other; the same rows with a case-file setting of the user's (--set), which
-the report's context names and which leaves out the row of a phase it turns off; and its own
+the report's context names and which leaves out the row of a phase it turns off, each step row's
+allocations at its peak by label (--memory-breakdown) summing to that peak; and its own
 options, given wrong, get an error naming the option and what it expects. It times nothing: the
 figures' values are not checked, only that each row ran and that its counters agree.
 
@@ -11,6 +12,7 @@ Usage: benchmark_counters.py MPMFLOW_BENCHMARKS WORK_DIR
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 
@@ -72,7 +74,9 @@ def check_kernel(row):
 # The relaxation turned off for every row: its kernel rows go, the others run without it.
 SETTING = "numerics/pressure_relaxation=false"
 SET_ROWS = ["--cells=2000", "--matrix-only", "--shapes=linear", "--steps=3", "--benchmark_filter=/2000/3/1/",
-            "--set", SETTING]
+            "--set", SETTING, "--memory-breakdown"]
+# "peak allocations of BM_Step/KEY: TOTAL B a particle (live before the run: BEFORE)", then a line a label.
+BREAKDOWN = re.compile(r"^peak allocations of (BM_Step/\S+): ([0-9.]+) B a particle \(live before the run: ([0-9.]+)\)$")
 
 
 def check_rows(benchmarks, work_dir, options, label, case_overrides):
@@ -98,6 +102,8 @@ def check_rows(benchmarks, work_dir, options, label, case_overrides):
         fail(f"the context's case_overrides is {report['context'].get('case_overrides')!r}, "
              f"expected {case_overrides!r}")
     rows = {row["run_name"]: row for row in report["benchmarks"]}
+    if "--memory-breakdown" in options:
+        check_breakdown(run.stderr, rows)
     steps = kernels = 0
     for name in expected:
         row = rows.get(name)
@@ -113,6 +119,39 @@ def check_rows(benchmarks, work_dir, options, label, case_overrides):
     if steps == 0 or kernels == 0:
         fail(f"{label}: no step row or no kernel row among the rows listed")
     return {name: rows.get(name) for name in expected}
+
+
+def check_breakdown(stderr, rows):
+    """--memory-breakdown: each step row's allocations at its peak, whose total less what was live
+    before the run is the row's peak_alloc_B_per_particle, the particle fields among them."""
+    lines = stderr.splitlines()
+    checked = 0
+    for k, line in enumerate(lines):
+        m = BREAKDOWN.match(line)
+        if not m:
+            continue
+        name = next((n for n in rows if n.startswith(m.group(1) + "/")), None)
+        if name is None:
+            fail(f"--memory-breakdown: {m.group(1)} names no step row that reported")
+            continue
+        total, before = float(m.group(2)), float(m.group(3))
+        peak = rows[name]["peak_alloc_B_per_particle"]
+        if abs(total - before - peak) > 0.1 + 1e-3 * peak:
+            fail(f"--memory-breakdown: {name}: {total} B a particle less {before} before the run, expected "
+                 f"the row's peak_alloc_B_per_particle {peak}")
+        labels = []
+        for entry in lines[k + 1:]:
+            if not entry.startswith("  "):
+                break
+            labels.append(entry.split()[-1])
+        if "particle_position_x" not in labels:
+            fail(f"--memory-breakdown: {name}: no particle_position_x among the labels {labels[:5]}")
+        checked += 1
+    steps = [n for n in rows if n.startswith("BM_Step/")]
+    if checked != len(steps):
+        fail(f"--memory-breakdown: {checked} breakdowns for {len(steps)} step rows")
+    else:
+        print(f"--memory-breakdown: {checked} step rows' peaks by label, each summing to its peak")
 
 
 def check_rows_with_setting(benchmarks, work_dir, plain_rows):
