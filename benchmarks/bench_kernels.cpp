@@ -326,7 +326,6 @@ void BM_Kernel(benchmark::State& state, RunSpec spec, Phase phase) {
   state.SetLabel(label_of(run));
 }
 
-// The whole step (time step, all phases, reordering when due).
 // The allocations live at the run's peak, by label, in bytes a particle, largest first (on stderr,
 // beside the row's line): where peak_alloc_B_per_particle goes.
 void print_peak_by_label(const Run& run, double particles) {
@@ -347,6 +346,7 @@ void print_peak_by_label(const Run& run, double particles) {
   if (small > 0) std::fprintf(stderr, "  (%d more labels under 0.01 B a particle each)\n", small);
 }
 
+// The whole step (time step, all phases, reordering when due).
 void BM_Step(benchmark::State& state, RunSpec spec, bool memory_breakdown) {
   Run& run = run_for(spec);
   Solver& solver = *run.solver;
@@ -606,7 +606,8 @@ int main(int argc, char** argv) {
   int rest_count = static_cast<int>(rest.size());
   Kokkos::ScopeGuard kokkos(rest_count, rest.data());
   mpmflow::allocations();  // counting from here
-  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, memory_breakdown, steps, case_overrides, relaxes);
+  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, memory_breakdown, steps, case_overrides,
+                               relaxes);
   // The context lines above the rows name the precision: the traffic model's bytes follow it.
   benchmark::AddCustomContext("real_t", sizeof(mpmflow::real_t) == sizeof(double) ? "double" : "float");
   // And the back-end and how many threads it runs at once (benchmarks/scaling_study.py's title).
