@@ -4,7 +4,6 @@
 // only, and one tracker at a time (the callbacks are global; none is set otherwise).
 #include <Kokkos_Core.hpp>
 
-#include <algorithm>
 #include <cstdint>
 #include <map>
 #include <mutex>
