@@ -13,6 +13,12 @@
 // within one session here, 17-80 GB/s across sessions), and the second compares the step with
 // what the machine gave at the same time.
 //
+// With --launch-census, each step row runs its steps once more, untimed, counting what a step
+// launches (kernel_launches_per_step, of them reductions_per_step) and copies between Views
+// (view_copies_per_step): on a GPU each costs microseconds of latency whatever its size, which at
+// small sizes bounds the step more than its bytes do. The counts are the back-end's path (a CPU
+// build takes the sorted P2G and its own selections; a GPU build the atomic P2G and scans).
+//
 // "Without reordering" starts from particles in random order, as after a long run in which
 // recycling has scattered them (freshly created particles are in cell order and would hide the
 // effect); "with reordering" sorts them by cell every step (numerics/reorder_interval = 1), or every
@@ -71,6 +77,7 @@
 #include <vector>
 
 #include "allocation_tracker.hpp"
+#include "launch_census.hpp"
 #include "case_config.hpp"
 #include "host_memory.hpp"
 #include "kernels/particle_sort.hpp"
@@ -346,8 +353,34 @@ void print_peak_by_label(const Run& run, double particles) {
   if (small > 0) std::fprintf(stderr, "  (%d more labels under 0.01 B a particle each)\n", small);
 }
 
+// What a step row reports besides its figures (options of this program).
+struct StepRowExtras {
+  bool memory_breakdown = false;  // --memory-breakdown
+  bool launch_census = false;     // --launch-census
+  bool launch_breakdown = false;  // --launch-breakdown
+};
+
+// After a step row's timed steps, as many again under a launch census (launch_census.hpp): the
+// kernel launches, reductions and View copies a step makes. Not timed: Kokkos fences before each
+// launch while a census is installed (its tools' default), which would take a GPU's launches out of
+// the queue they overlap in.
+void count_launches(benchmark::State& state, const Run& run, Solver& solver, long steps, bool by_label) {
+  const LaunchCensus census(by_label);
+  for (long k = 0; k < steps; ++k) solver.advance(solver.stable_time_step());
+  state.counters["kernel_launches_per_step"] = double(census.launches()) / steps;
+  state.counters["reductions_per_step"] = double(census.reductions()) / steps;
+  state.counters["view_copies_per_step"] = double(census.view_copies()) / steps;
+  if (!by_label) return;
+  std::fprintf(stderr, "launches of BM_Step/%s a step: %.2f (%.2f reductions), %.2f View copies\n",
+               run.spec.key().c_str(),
+               double(census.launches()) / steps, double(census.reductions()) / steps,
+               double(census.view_copies()) / steps);
+  for (const auto& [label, count] : census.by_label())
+    std::fprintf(stderr, "  %8.2f  %s\n", double(count) / steps, label.c_str());
+}
+
 // The whole step (time step, all phases, reordering when due).
-void BM_Step(benchmark::State& state, RunSpec spec, bool memory_breakdown) {
+void BM_Step(benchmark::State& state, RunSpec spec, StepRowExtras extras) {
   Run& run = run_for(spec);
   Solver& solver = *run.solver;
   solver.timers() = PhaseTimers();
@@ -388,7 +421,8 @@ void BM_Step(benchmark::State& state, RunSpec spec, bool memory_breakdown) {
   state.counters["particle_B_per_particle"] = double(memory.particle_bytes) / solver.particles().count;
   state.counters["grid_B_per_node"] = double(memory.grid_bytes + memory.scatter_copy_bytes) / run.nodes;
   state.SetLabel(label_of(run));
-  if (memory_breakdown) print_peak_by_label(run, solver.particles().count);
+  if (extras.memory_breakdown) print_peak_by_label(run, solver.particles().count);
+  if (extras.launch_census && steps > 0) count_launches(state, run, solver, steps, extras.launch_breakdown);
 }
 
 // The items of a comma-separated list.
@@ -493,7 +527,7 @@ CaseConfig check_case_overrides(const std::vector<std::string>& overrides) {
 // Each row runs a fixed number of whole steps (a kernel row times its phase within them), so a
 // row costs the same whatever share of the step its kernel takes.
 void register_benchmarks(const std::vector<std::string>& shapes, const std::vector<long>& cell_counts,
-                         bool matrix_only, bool memory_breakdown, int steps_per_row,
+                         bool matrix_only, const StepRowExtras& extras, int steps_per_row,
                          const std::vector<std::string>& case_overrides, bool relaxes) {
   benchmark::RegisterBenchmark("BM_Triad", BM_Triad)->Arg(triad_length)->Unit(benchmark::kMillisecond)->UseRealTime();
   const std::vector<Phase> kernels = {Phase::p2g_mass_momentum_force, Phase::g2p_p2g_velocity_momentum,
@@ -512,7 +546,7 @@ void register_benchmarks(const std::vector<std::string>& shapes, const std::vect
           ->UseManualTime()
           ->Iterations(steps_per_row);
     }
-    benchmark::RegisterBenchmark(("BM_Step" + suffix).c_str(), BM_Step, spec, memory_breakdown)
+    benchmark::RegisterBenchmark(("BM_Step" + suffix).c_str(), BM_Step, spec, extras)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime()
         ->Iterations(steps_per_row);
@@ -559,13 +593,17 @@ void register_benchmarks(const std::vector<std::string>& shapes, const std::vect
 //   --shapes=LIST   shape functions of the kernel matrix, e.g. --shapes=gimp,linear (default gimp)
 //   --matrix-only   only the matrix (grid sizes x ppc x ordering), not the target-size variants
 //   --memory-breakdown  after each step row, the allocations at its peak by label (on stderr)
+//   --launch-census after each step row's timing, its steps again (untimed) with the kernel launches,
+//                   reductions and View copies counted: kernel_launches_per_step, ...
+//   --launch-breakdown  the same, and the counts by kernel label (on stderr)
 //   --steps=N       steps per row (default 20)
 //   --set PATH=VALUE  (or --set=PATH=VALUE; repeatable) a case-file setting for every row, as
 //                   `mpmflow run --set` takes it, e.g. --set numerics/pressure_relaxation=false
 int main(int argc, char** argv) {
   mpmflow::reuse_freed_host_memory();  // as the solver's executable does (host_memory.hpp)
   std::string cells = "1e4,1e5", shapes = "gimp", steps_text = "20";
-  bool matrix_only = false, memory_breakdown = false;
+  bool matrix_only = false;
+  mpmflow::StepRowExtras extras;
   std::vector<std::string> case_overrides;
   std::vector<char*> rest;
   for (int k = 0; k < argc; ++k) {
@@ -586,7 +624,9 @@ int main(int argc, char** argv) {
     if (arg.rfind("--cells=", 0) == 0) cells = arg.substr(8);
     else if (arg.rfind("--shapes=", 0) == 0) shapes = arg.substr(9);
     else if (arg == "--matrix-only") matrix_only = true;
-    else if (arg == "--memory-breakdown") memory_breakdown = true;
+    else if (arg == "--memory-breakdown") extras.memory_breakdown = true;
+    else if (arg == "--launch-census") extras.launch_census = true;
+    else if (arg == "--launch-breakdown") extras.launch_census = extras.launch_breakdown = true;
     else if (arg.rfind("--steps=", 0) == 0) steps_text = arg.substr(8);
     else rest.push_back(argv[k]);
   }
@@ -606,7 +646,7 @@ int main(int argc, char** argv) {
   int rest_count = static_cast<int>(rest.size());
   Kokkos::ScopeGuard kokkos(rest_count, rest.data());
   mpmflow::allocations();  // counting from here
-  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, memory_breakdown, steps, case_overrides,
+  mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, extras, steps, case_overrides,
                                relaxes);
   // The context lines above the rows name the precision: the traffic model's bytes follow it.
   benchmark::AddCustomContext("real_t", sizeof(mpmflow::real_t) == sizeof(double) ? "double" : "float");

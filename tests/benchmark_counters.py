@@ -3,8 +3,8 @@
 a small size and reports, for each, the counters the README's Benchmarks section names, finite and
 consistent with each other; the same rows with a case-file setting of the user's (--set), which
 the report's context names and which leaves out the row of a phase it turns off, each step row's
-allocations at its peak by label (--memory-breakdown) summing to that peak; and its own
-options, given wrong, get an error naming the option and what it expects. It times nothing: the
+allocations at its peak by label (--memory-breakdown) summing to that peak, and its kernel
+launches a step by label (--launch-breakdown) summing to its launch counters; and its own options, given wrong, get an error naming the option and what it expects. It times nothing: the
 figures' values are not checked, only that each row ran and that its counters agree.
 
 Usage: benchmark_counters.py MPMFLOW_BENCHMARKS WORK_DIR
@@ -74,8 +74,10 @@ def check_kernel(row):
 # The relaxation turned off for every row: its kernel rows go, the others run without it.
 SETTING = "numerics/pressure_relaxation=false"
 SET_ROWS = ["--cells=2000", "--matrix-only", "--shapes=linear", "--steps=3", "--benchmark_filter=/2000/3/1/",
-            "--set", SETTING, "--memory-breakdown"]
+            "--set", SETTING, "--memory-breakdown", "--launch-breakdown"]
 # "peak allocations of BM_Step/KEY: TOTAL B a particle (live before the run: BEFORE)", then a line a label.
+# "launches of BM_Step/KEY a step: L (R reductions), C View copies", then a line a label.
+LAUNCHES = re.compile(r"^launches of (BM_Step/\S+) a step: ([0-9.]+) \(([0-9.]+) reductions\), ([0-9.]+) View copies$")
 BREAKDOWN = re.compile(r"^peak allocations of (BM_Step/\S+): ([0-9.]+) B a particle \(live before the run: ([0-9.]+)\)$")
 
 
@@ -104,6 +106,8 @@ def check_rows(benchmarks, work_dir, options, label, case_overrides):
     rows = {row["run_name"]: row for row in report["benchmarks"]}
     if "--memory-breakdown" in options:
         check_breakdown(run.stderr, rows)
+    if "--launch-breakdown" in options:
+        check_launches(run.stderr, rows)
     steps = kernels = 0
     for name in expected:
         row = rows.get(name)
@@ -152,6 +156,48 @@ def check_breakdown(stderr, rows):
         fail(f"--memory-breakdown: {checked} breakdowns for {len(steps)} step rows")
     else:
         print(f"--memory-breakdown: {checked} step rows' peaks by label, each summing to its peak")
+
+
+def check_launches(stderr, rows):
+    """--launch-breakdown: each step row's launches, reductions and View copies a step as counters
+    (launches above zero, reductions among them), and by label on stderr, summing to them."""
+    lines = stderr.splitlines()
+    checked = 0
+    for k, line in enumerate(lines):
+        m = LAUNCHES.match(line)
+        if not m:
+            continue
+        name = next((n for n in rows if n.startswith(m.group(1) + "/")), None)
+        if name is None:
+            fail(f"--launch-breakdown: {m.group(1)} names no step row that reported")
+            continue
+        row = rows[name]
+        launches, reductions, copies = (row.get(c) for c in ("kernel_launches_per_step", "reductions_per_step",
+                                                             "view_copies_per_step"))
+        if not (isinstance(launches, (int, float)) and launches > 0 and isinstance(reductions, (int, float))
+                and 0 <= reductions <= launches and isinstance(copies, (int, float)) and copies >= 0):
+            fail(f"--launch-breakdown: {name}: launches {launches!r}, reductions {reductions!r}, copies {copies!r}: "
+                 f"expected launches above zero, reductions among them, copies not below zero")
+            continue
+        for printed, counter in ((m.group(2), launches), (m.group(3), reductions), (m.group(4), copies)):
+            if abs(float(printed) - counter) > 0.006:
+                fail(f"--launch-breakdown: {name}: {printed} printed, the counter is {counter}")
+        by_label, labels = 0.0, 0
+        for entry in lines[k + 1:]:
+            if not entry.startswith("  "):
+                break
+            by_label += float(entry.split()[0])
+            labels += 1
+        # (Each label's count is printed to 2 decimals: off by 0.005 at most.)
+        if labels == 0 or abs(by_label - launches - copies) > 0.005 * labels + 1e-9:
+            fail(f"--launch-breakdown: {name}: the labels sum to {by_label}, expected the launches and copies, "
+                 f"{launches + copies}")
+        checked += 1
+    steps = [n for n in rows if n.startswith("BM_Step/")]
+    if checked != len(steps):
+        fail(f"--launch-breakdown: {checked} censuses for {len(steps)} step rows")
+    else:
+        print(f"--launch-breakdown: {checked} step rows' launches a step by label, each summing to its counters")
 
 
 def check_rows_with_setting(benchmarks, work_dir, plain_rows):

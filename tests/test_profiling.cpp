@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "case_config.hpp"
+#include "launch_census.hpp"
 #include "particles.hpp"
 #include "solver.hpp"
 
@@ -62,6 +63,39 @@ TEST(Profiling, EveryPhaseIsANamedRegion) {
                             Phase::g2pd_particle_update, Phase::particle_move, Phase::open_sides,
                             Phase::migration, Phase::reorder})
     EXPECT_TRUE(regions.count(phase_name(phase))) << "no region " << phase_name(phase);
+}
+
+// What the benchmark's --launch-census counts (launch_census.hpp): launches of each kind, by label,
+// and copies between Views, not fills. (Free functions: nvcc allows no device lambda in a test's
+// body, a private member function.)
+void fill_with_indices(const RealView& a) {
+  Kokkos::parallel_for(
+      "census_fill", Kokkos::RangePolicy<ExecutionSpace>(0, a.extent(0)), KOKKOS_LAMBDA(const index_t i) { a(i) = i; });
+}
+double sum_of(const RealView& a) {
+  double sum = 0;
+  Kokkos::parallel_reduce(
+      "census_sum", Kokkos::RangePolicy<ExecutionSpace>(0, a.extent(0)),
+      KOKKOS_LAMBDA(const index_t i, double& total) { total += a(i); }, sum);
+  return sum;
+}
+
+TEST(Profiling, TheLaunchCensusCountsLaunchesReductionsAndViewCopies) {
+  const RealView a("census_a", 100), b("census_b", 100);  // (their initialisation before the census)
+  const LaunchCensus census(/*by_label=*/true);
+  fill_with_indices(a);
+  fill_with_indices(a);
+  EXPECT_EQ(sum_of(a), 4950.0);
+  Kokkos::deep_copy(b, a);
+  Kokkos::deep_copy(b, real_t(0));  // a fill: a launch (or a memset), not a copy
+  EXPECT_EQ(census.by_label().at("census_fill"), 2);
+  EXPECT_EQ(census.by_label().at("census_sum"), 1);
+  EXPECT_EQ(census.by_label().at("copy census_b <- census_a"), 1);
+  EXPECT_EQ(census.reductions(), 1);
+  EXPECT_EQ(census.view_copies(), 1);
+  // The three launches above, and at most the fill's own.
+  EXPECT_GE(census.launches(), 3);
+  EXPECT_LE(census.launches(), 4);
 }
 
 TEST(Profiling, UnfusedKernelsAreRegionsOfTheirOwn) {
