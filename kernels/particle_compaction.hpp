@@ -151,19 +151,11 @@ IndexView select_indices(const char* label, index_t first, index_t last, const P
     return select_indices_by_scan(label, first, last, keep, buffer);
 }
 
-// field(holes(k)) = field(fillers(k)) for k in [0, count). (A named function, not a lambda in the
-// caller: nvcc does not allow a device lambda inside the generic lambdas that visit the fields.)
-template <class FieldView>
-void fill_holes(const FieldView& field, const IndexView& holes, const IndexView& fillers, index_t count) {
-  Kokkos::parallel_for(
-      "particle_fill_holes", Kokkos::RangePolicy<ExecutionSpace>(0, count),
-      KOKKOS_LAMBDA(const index_t k) { field(holes(k)) = field(fillers(k)); });
-}
-
 // The hole filling that packs the staying particles of [0, n) into [0, staying): the removed
 // particles below `staying` (the holes) take the staying particles at and above it (the fillers),
 // both in index order. `removed` lists the removed particles in increasing order, and
-// `removed_at(p)` tells whether p is one of them. Apply it with fill_holes on every field.
+// `removed_at(p)` tells whether p is one of them. Apply it to every field: particle holes(k) becomes
+// a copy of particle fillers(k) (copy_particles, src/particles.hpp).
 struct HoleFilling {
   index_t staying = 0;  // the new count
   IndexView holes, fillers;

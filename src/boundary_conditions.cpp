@@ -47,6 +47,22 @@ std::vector<IndexRange2D> condition_lines(const GridSlab& slab, BoundaryType typ
   return lines;
 }
 
+// A side's condition lines as one rectangle: they are the side's line and the lines beyond it, next
+// to each other (those on this slab), so that a condition visits them in one launch.
+IndexRange2D condition_band(const GridSlab& slab, BoundaryType type, Side side) {
+  IndexRange2D band;
+  for (const IndexRange2D& line : condition_lines(slab, type, side)) {
+    if (line.empty()) continue;
+    if (band.empty()) {
+      band = line;
+      continue;
+    }
+    band = {std::min(band.begin_x, line.begin_x), std::max(band.end_x, line.end_x),
+            std::min(band.begin_y, line.begin_y), std::max(band.end_y, line.end_y)};
+  }
+  return band;
+}
+
 // The free-stream pressure on the outflow and far-field sides, as the gas outside acts on the
 // nodes of the side (free functions rather than private members: CUDA forbids device lambdas in
 // private members).
@@ -116,29 +132,35 @@ void apply_inflow_sides(const GridSlab& slab, const std::array<BoundaryType, num
   const real_t vx = free_stream.velocity_x, vy = free_stream.velocity_y;
   for (int s = 0; s < num_sides; ++s) {
     if (side_type[s] != BoundaryType::inflow) continue;
-    for (const IndexRange2D& line : condition_lines(slab, side_type[s], static_cast<Side>(s)))
-      for_nodes("inflow_nodes", geo, line,
-                KOKKOS_LAMBDA(const index_t node, index_t, index_t) {
-                  const real_t m = state(node, GridFields::mass);
-                  momentum(node, column_x) = m * vx;
-                  momentum(node, column_x + 1) = m * vy;
-                  if (with_force) {
-                    state(node, GridFields::force_x) = 0;
-                    state(node, GridFields::force_y) = 0;
-                  }
-                });
+    for_nodes("inflow_nodes", geo, condition_band(slab, side_type[s], static_cast<Side>(s)),
+              KOKKOS_LAMBDA(const index_t node, index_t, index_t) {
+                const real_t m = state(node, GridFields::mass);
+                momentum(node, column_x) = m * vx;
+                momentum(node, column_x + 1) = m * vy;
+                if (with_force) {
+                  state(node, GridFields::force_x) = 0;
+                  state(node, GridFields::force_y) = 0;
+                }
+              });
   }
 }
 
+// The normal component of the vector in columns column_x, column_x + 1 of `fields` zeroed on the
+// slip walls' nodes, and of the one from second_column_x where that is not negative (the momentum
+// and the force in one launch a wall).
 void apply_slip_walls(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
-                      const NodeFieldsView& fields, int column_x) {
+                      const NodeFieldsView& fields, int column_x, int second_column_x = -1) {
   const GridGeometry& geo = slab.geometry;
   for (int s = 0; s < num_sides; ++s) {
     if (side_type[s] != BoundaryType::slip_wall) continue;
-    const int normal_column = column_x + (s == left_side || s == right_side ? 0 : 1);
-    for (const IndexRange2D& line : condition_lines(slab, side_type[s], static_cast<Side>(s)))
-      for_nodes("slip_wall", geo, line,
-                KOKKOS_LAMBDA(const index_t node, index_t, index_t) { fields(node, normal_column) = 0; });
+    const int normal = s == left_side || s == right_side ? 0 : 1;
+    const int normal_column = column_x + normal;
+    const int second_normal_column = second_column_x < 0 ? -1 : second_column_x + normal;
+    for_nodes("slip_wall", geo, condition_band(slab, side_type[s], static_cast<Side>(s)),
+              KOKKOS_LAMBDA(const index_t node, index_t, index_t) {
+                fields(node, normal_column) = 0;
+                if (second_normal_column >= 0) fields(node, second_normal_column) = 0;
+              });
   }
 }
 
@@ -149,7 +171,10 @@ void apply_slip_walls(const GridSlab& slab, const std::array<BoundaryType, num_s
 // splitting filled the gaps with particles split again and again (to 2^-37 of a placed particle's
 // mass and a density of 7e-12 in the cylinder at t = 3; the aerofoil once failed with a negative
 // density at t = 0.27), which also shrank the time step (README, Wind tunnel).
-void remove_normal_component(const ObstacleGrid& obstacles, const NodeFieldsView& fields, int column_x) {
+// (And of the vector from second_column_x, where that is not negative: the momentum and the force
+// in one launch.)
+void remove_normal_component(const ObstacleGrid& obstacles, const NodeFieldsView& fields, int column_x,
+                             int second_column_x = -1) {
   const index_t count = obstacles.num_obstacle_nodes();
   if (count == 0) return;
   const IndexView nodes = obstacles.obstacle_nodes;
@@ -158,9 +183,13 @@ void remove_normal_component(const ObstacleGrid& obstacles, const NodeFieldsView
       "obstacle_nodes", Kokkos::RangePolicy<ExecutionSpace>(0, count), KOKKOS_LAMBDA(const index_t k) {
         const index_t node = nodes(k);
         const real_t nx = normals(k, 0), ny = normals(k, 1);
-        const real_t a_n = fields(node, column_x) * nx + fields(node, column_x + 1) * ny;
-        fields(node, column_x) -= a_n * nx;
-        fields(node, column_x + 1) -= a_n * ny;
+        const auto remove = [&](int column) {
+          const real_t a_n = fields(node, column) * nx + fields(node, column + 1) * ny;
+          fields(node, column) -= a_n * nx;
+          fields(node, column + 1) -= a_n * ny;
+        };
+        remove(column_x);
+        if (second_column_x >= 0) remove(second_column_x);
       });
 }
 
@@ -169,28 +198,37 @@ void remove_normal_component(const ObstacleGrid& obstacles, const NodeFieldsView
 // particle's velocity changes by dt times the interpolated force per unit mass, so the gas's
 // momentum changes by dt times the sum of the node forces: what the condition removes, the body
 // takes.)
+// Its sums, 2 o + axis for obstacle o, in one reduction (one launch, one wait on a GPU, where there
+// were two an obstacle); each sums the same terms in the same order as a reduction of its own.
+struct ObstacleForceSums {
+  using value_type = double[];
+  unsigned value_count;  // 2 x the obstacles (Kokkos' name: the length of an array reduction)
+  IndexView nodes, of_node;
+  NodeFieldsView normals, state;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sums) const {
+    const index_t node = nodes(k);
+    const real_t nx = normals(k, 0), ny = normals(k, 1);
+    const real_t f_n = state(node, GridFields::force_x) * nx + state(node, GridFields::force_y) * ny;
+    sums[2 * of_node(k)] += f_n * nx;
+    sums[2 * of_node(k) + 1] += f_n * ny;
+  }
+};
+
 void add_obstacle_forces(const ObstacleGrid& obstacles, const NodeFieldsView& state, ObstacleForces& forces) {
   const index_t count = obstacles.num_obstacle_nodes();
-  forces.x.assign(static_cast<size_t>(obstacles.num_obstacles), 0.0);
-  forces.y.assign(static_cast<size_t>(obstacles.num_obstacles), 0.0);
+  const size_t num_obstacles = static_cast<size_t>(obstacles.num_obstacles);
+  forces.x.assign(num_obstacles, 0.0);
+  forces.y.assign(num_obstacles, 0.0);
   if (count == 0) return;
-  const IndexView nodes = obstacles.obstacle_nodes, of_node = obstacles.obstacle_of_node;
-  const NodeFieldsView normals = obstacles.obstacle_normals;
-  for (int o = 0; o < obstacles.num_obstacles; ++o) {
-    for (int axis = 0; axis < 2; ++axis) {
-      double sum = 0;
-      Kokkos::parallel_reduce(
-          "obstacle_force", Kokkos::RangePolicy<ExecutionSpace>(0, count),
-          KOKKOS_LAMBDA(const index_t k, double& total) {
-            if (of_node(k) != o) return;
-            const index_t node = nodes(k);
-            const real_t nx = normals(k, 0), ny = normals(k, 1);
-            const real_t f_n = state(node, GridFields::force_x) * nx + state(node, GridFields::force_y) * ny;
-            total += f_n * (axis == 0 ? nx : ny);
-          },
-          sum);
-      (axis == 0 ? forces.x : forces.y)[static_cast<size_t>(o)] = sum;
-    }
+  std::vector<double> sums(2 * num_obstacles, 0.0);
+  Kokkos::parallel_reduce(
+      "obstacle_force", Kokkos::RangePolicy<ExecutionSpace>(0, count),
+      ObstacleForceSums{static_cast<unsigned>(sums.size()), obstacles.obstacle_nodes, obstacles.obstacle_of_node,
+                        obstacles.obstacle_normals, state},
+      sums.data());
+  for (size_t o = 0; o < num_obstacles; ++o) {
+    forces.x[o] = sums[2 * o];
+    forces.y[o] = sums[2 * o + 1];
   }
 }
 
@@ -206,11 +244,9 @@ GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const G
 void GridBoundaryConditions::apply_to_momentum_and_force(const NodeFieldsView& state, ObstacleForces* forces) const {
   apply_side_pressure(slab_, side_type_, free_stream_, state);
   apply_inflow_sides(slab_, side_type_, free_stream_, state, GridFields::momentum_x, state, /*with_force=*/true);
-  apply_slip_walls(slab_, side_type_, state, GridFields::momentum_x);
-  apply_slip_walls(slab_, side_type_, state, GridFields::force_x);
+  apply_slip_walls(slab_, side_type_, state, GridFields::momentum_x, GridFields::force_x);
   if (forces) add_obstacle_forces(obstacles_, state, *forces);
-  remove_normal_component(obstacles_, state, GridFields::momentum_x);
-  remove_normal_component(obstacles_, state, GridFields::force_x);
+  remove_normal_component(obstacles_, state, GridFields::momentum_x, GridFields::force_x);
 }
 
 void GridBoundaryConditions::apply_to_momentum(const NodeFieldsView& momentum, int column_x,

@@ -201,33 +201,41 @@ void add_far_field_strip_volumes(const FarFieldStrips& strips, const ParticleSta
   Kokkos::Experimental::contribute(target, scatter);
 }
 
+// The sums of totals_of_particles in one reduction (one launch, one wait for its result on a GPU,
+// where five made five), each in the order of its own: the same bits as one reduction a total.
+struct ParticleTotalsSum {
+  using value_type = double[];
+  enum Total : int { mass, momentum_x, momentum_y, kinetic_energy, internal_energy, num_totals };
+  unsigned value_count = num_totals;  // (Kokkos' name: the length of an array reduction)
+  RealView m, vx, vy, e;
+  IndexView list;  // the particles summed, or (empty) first + k
+  index_t first;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type totals) const {
+    const index_t p = list.extent(0) > 0 ? list(k) : first + k;
+    const double particle_mass = m(p);
+    totals[mass] += particle_mass;
+    totals[momentum_x] += particle_mass * vx(p);
+    totals[momentum_y] += particle_mass * vy(p);
+    totals[kinetic_energy] += 0.5 * particle_mass * (double(vx(p)) * vx(p) + double(vy(p)) * vy(p));
+    totals[internal_energy] += particle_mass * e(p);
+  }
+};
+
 }  // namespace
 
 ConservationTotals totals_of_particles(const ParticleState& pt, const IndexView& list, index_t first, index_t count) {
   ConservationTotals totals;
   if (count == 0) return totals;
-  const bool listed = list.extent(0) > 0;
-  const RealView m = pt.mass, vx = pt.velocity_x, vy = pt.velocity_y, e = pt.specific_energy;
-  double* targets[] = {&totals.mass, &totals.momentum_x, &totals.momentum_y, &totals.kinetic_energy,
-                       &totals.internal_energy};
-  for (int which = 0; which < 5; ++which) {
-    double sum = 0;
-    Kokkos::parallel_reduce(
-        "open_side_totals", Kokkos::RangePolicy<ExecutionSpace>(0, count),
-        KOKKOS_LAMBDA(const index_t k, double& total) {
-          const index_t p = listed ? list(k) : first + k;
-          const double mass = m(p);
-          switch (which) {
-            case 0: total += mass; break;
-            case 1: total += mass * vx(p); break;
-            case 2: total += mass * vy(p); break;
-            case 3: total += 0.5 * mass * (double(vx(p)) * vx(p) + double(vy(p)) * vy(p)); break;
-            default: total += mass * e(p); break;
-          }
-        },
-        sum);
-    *targets[which] = sum;
-  }
+  using Sum = ParticleTotalsSum;
+  double sums[Sum::num_totals] = {};
+  Kokkos::parallel_reduce("open_side_totals", Kokkos::RangePolicy<ExecutionSpace>(0, count),
+                          Sum{Sum::num_totals, pt.mass, pt.velocity_x, pt.velocity_y, pt.specific_energy, list, first},
+                          sums);
+  totals.mass = sums[Sum::mass];
+  totals.momentum_x = sums[Sum::momentum_x];
+  totals.momentum_y = sums[Sum::momentum_y];
+  totals.kinetic_energy = sums[Sum::kinetic_energy];
+  totals.internal_energy = sums[Sum::internal_energy];
   return totals;
 }
 
@@ -327,7 +335,7 @@ void OpenBoundaries::exchange(ParticleState& pt, const SlabState& slab_state, re
     // Open: they are removed ...
     if (num_leaving > 0) {
       const HoleFilling plan = plan_hole_filling(pt.count, leaving, outside);
-      pt.for_each_field([&](const auto& field) { fill_holes(field, plan.holes, plan.fillers, plan.count); });
+      copy_particles("particle_fill_holes", pt, plan.holes, 0, plan.fillers, plan.count);
       pt.count = plan.staying;
     }
   }

@@ -106,7 +106,7 @@ index_t ParticleMerging::merge(ParticleState& particles, const ParticleBoundarie
   const RealView mass = pt.mass;
   const HoleFilling plan =
       plan_hole_filling(pt.count, removed, KOKKOS_LAMBDA(const index_t p) { return mass(p) == real_t(0); });
-  particles.for_each_field([&](const auto& field) { fill_holes(field, plan.holes, plan.fillers, plan.count); });
+  copy_particles("particle_fill_holes", particles, plan.holes, 0, plan.fillers, plan.count);
   particles.count = plan.staying;
   return num_pairs;
 }

@@ -185,7 +185,7 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   // above it, both in index order.
   const HoleFilling plan =
       plan_hole_filling(n, leaving, KOKKOS_LAMBDA(const index_t p) { return destination(p) != rank; });
-  pt.for_each_field([&](const auto& field) { fill_holes(field, plan.holes, plan.fillers, plan.count); });
+  copy_particles("particle_fill_holes", pt, plan.holes, 0, plan.fillers, plan.count);
   const index_t staying = plan.staying;
 
   // Append the arrivals.

@@ -9,14 +9,6 @@
 namespace mpmflow {
 namespace {
 
-// field(first + k) = field(parent(k)) for k < n: the new halves start as copies of their parents.
-template <class ViewType>
-void copy_to_new_halves(const ViewType& field, const IndexView& parent, index_t first, index_t n) {
-  Kokkos::parallel_for(
-      "split_copy", Kokkos::RangePolicy<ExecutionSpace>(0, n),
-      KOKKOS_LAMBDA(const index_t k) { field(first + k) = field(parent(k)); });
-}
-
 // Whether particle p splits: along which axis (split_axis), and where its halves would lie.
 struct SplitRule {
   ParticleBoundaries boundaries;
@@ -108,7 +100,7 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
   particles.grow_to_hold(count + num_local);
   particles.count = count + num_local;
   const IndexView parent = parent_;
-  particles.for_each_field([&](const auto& field) { copy_to_new_halves(field, parent, count, num_local); });
+  copy_particles("split_copy", particles, IndexView(), count, parent, num_local);
   const ParticleState pt = particles;
   Kokkos::parallel_for(
       "split_halves", Kokkos::RangePolicy<ExecutionSpace>(0, num_local), KOKKOS_LAMBDA(const index_t k) {

@@ -1,5 +1,7 @@
 #include "particles.hpp"
 
+#include <stdexcept>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -41,6 +43,36 @@ ParticleState::ParticleState(index_t n)
       domain_stretch_y("particle_domain_stretch_y", n),
       cell("particle_cell", n),
       id("particle_id", n) {}
+
+WholeParticles::WholeParticles(const ParticleState& particles) {
+  particles.for_each_field([this](const auto& field) {
+    using Field = std::decay_t<decltype(field)>;
+    // (A field type or count not provided for here is a compile-time or first-use error, not a
+    // particle copied in part.)
+    static_assert(std::is_same<Field, RealView>::value || std::is_same<Field, IndexView>::value ||
+                      std::is_same<Field, ParticleIdView>::value,
+                  "WholeParticles: a particle field of a type it does not hold");
+    int& count = std::is_same<Field, RealView>::value    ? num_reals
+                 : std::is_same<Field, IndexView>::value ? num_indices
+                                                         : num_ids;
+    if (count == max_fields_of_a_type)
+      throw std::logic_error("WholeParticles: more particle fields of a type than max_fields_of_a_type");
+    if constexpr (std::is_same<Field, RealView>::value) reals[count] = field;
+    else if constexpr (std::is_same<Field, IndexView>::value) indices[count] = field;
+    else ids[count] = field;
+    ++count;
+  });
+}
+
+void copy_particles(const char* label, const ParticleState& particles, const IndexView& destinations, index_t first,
+                    const IndexView& sources, index_t n) {
+  if (n <= 0) return;
+  const WholeParticles whole(particles);
+  const bool listed = destinations.extent(0) > 0;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, n),
+      KOKKOS_LAMBDA(const index_t k) { whole.copy(listed ? destinations(k) : first + k, sources(k)); });
+}
 
 void ParticleState::reserve(index_t n) {
   if (n <= capacity()) return;

@@ -90,6 +90,31 @@ struct ParticleState {
   }
 };
 
+// Every particle field, by its type, gathered from ParticleState::for_each_field (the one list of
+// the fields): so that one kernel moves particles whole, where a kernel a field made a dozen
+// launches (a GPU pays microseconds a launch however few particles move; splitting and the hole
+// filling of the open sides run every step).
+struct WholeParticles {
+  static constexpr int max_fields_of_a_type = 16;
+  Kokkos::Array<RealView, max_fields_of_a_type> reals;
+  Kokkos::Array<IndexView, max_fields_of_a_type> indices;
+  Kokkos::Array<ParticleIdView, max_fields_of_a_type> ids;
+  int num_reals = 0, num_indices = 0, num_ids = 0;
+
+  explicit WholeParticles(const ParticleState& particles);
+  // Particle `to` becomes a copy of particle `from`.
+  KOKKOS_INLINE_FUNCTION void copy(index_t to, index_t from) const {
+    for (int f = 0; f < num_reals; ++f) reals[f](to) = reals[f](from);
+    for (int f = 0; f < num_indices; ++f) indices[f](to) = indices[f](from);
+    for (int f = 0; f < num_ids; ++f) ids[f](to) = ids[f](from);
+  }
+};
+
+// Particle destinations(k) (first + k where `destinations` is empty) becomes a copy of particle
+// sources(k), for k < n, every field, in one launch. No destination may be a source.
+void copy_particles(const char* label, const ParticleState& particles, const IndexView& destinations, index_t first,
+                    const IndexView& sources, index_t n);
+
 // Particles of the initial state on the slab's owned cells, placed as the case asks; ids are
 // global (cell-major), so they do not depend on how the grid is split.
 ParticleState create_initial_particles(const CaseConfig& config, const GridSlab& slab);

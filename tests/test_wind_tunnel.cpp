@@ -25,6 +25,7 @@
 #include "counter_random.hpp"
 #include "geometry.hpp"
 #include "host_memory.hpp"
+#include "launch_census.hpp"
 #include "open_boundaries.hpp"
 #include "particle_splitting.hpp"
 #include "particles.hpp"
@@ -590,6 +591,47 @@ TEST(ParticleStorage, GrowingKeepsEveryFieldOfTheParticlesInUse) {
     ++f;
   });
   EXPECT_EQ(f, static_cast<int>(labels.size()));
+}
+
+// copy_particles moves particles whole, every field, in one launch (a GPU pays a launch's latency
+// however few particles move): to listed places and to places from `first` on.
+TEST(ParticleStorage, CopyParticlesCopiesEveryFieldInOneLaunch) {
+  const index_t n = 100;
+  ParticleState pt(n);
+  pt.count = n;
+  // Field f's entry p: 1000 f + p (distinct across fields and particles; exact in every field type).
+  int f = 0;
+  pt.for_each_field([&](const auto& field) {
+    auto h = Kokkos::create_mirror_view(field);
+    for (index_t p = 0; p < n; ++p) h(p) = 1000 * f + p;
+    Kokkos::deep_copy(field, h);
+    ++f;
+  });
+  // Particles 3 and 7 to 90 and 95; particles 10, 11 and 12 to 50, 51 and 52.
+  const IndexView to = to_device_indices("copy_to", {90, 95}), from = to_device_indices("copy_from", {3, 7});
+  const IndexView from_run = to_device_indices("copy_from_run", {10, 11, 12});
+  long long copy_launches = 0;
+  {
+    const LaunchCensus census(/*by_label=*/true);
+    copy_particles("test_copy", pt, to, 0, from, 2);
+    copy_particles("test_copy", pt, IndexView(), 50, from_run, 3);
+    copy_launches = census.by_label().at("test_copy");
+  }
+  EXPECT_EQ(copy_launches, 2);
+  const std::map<index_t, index_t> source_of = {{90, 3}, {95, 7}, {50, 10}, {51, 11}, {52, 12}};
+  f = 0;
+  pt.for_each_field([&](const auto& field) {
+    SCOPED_TRACE(field.label());
+    auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), field);
+    index_t wrong = 0;
+    for (index_t p = 0; p < n; ++p) {
+      const auto it = source_of.find(p);
+      const index_t source = it == source_of.end() ? p : it->second;
+      wrong += h(p) == std::decay_t<decltype(h(p))>(1000 * f + source) ? 0 : 1;
+    }
+    EXPECT_EQ(wrong, 0);
+    ++f;
+  });
 }
 
 // A moved ParticleState hands its fields over whole: the source keeps none (with Kokkos 3.4 a View's
