@@ -334,7 +334,7 @@ void OpenBoundaries::exchange(ParticleState& pt, const SlabState& slab_state, re
     }
     // Open: they are removed ...
     if (num_leaving > 0) {
-      const HoleFilling plan = plan_hole_filling(pt.count, leaving, outside);
+      const HoleFilling plan = plan_hole_filling(pt.count, leaving, outside, fillers_);
       copy_particles("particle_fill_holes", pt, plan.holes, 0, plan.fillers, plan.count);
       pt.count = plan.staying;
     }

@@ -162,6 +162,7 @@ class OpenBoundaries {
   Kokkos::View<long long*, DeviceType> strip_volume_;  // per entry cell: its far-field strip's volume
   BoundaryFluxes fluxes_;
   IndexView leaving_;  // the list of the particles that left (select_indices), kept from step to step
+  IndexView fillers_;  // the staying particles that fill their places (plan_hole_filling), kept likewise
 };
 
 // The conservation totals of `count` particles: those listed in `list`, or, with an empty
