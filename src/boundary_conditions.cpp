@@ -193,13 +193,9 @@ void remove_normal_component(const ObstacleGrid& obstacles, const NodeFieldsView
       });
 }
 
-// The force the gas exerts on each obstacle: the normal component of the force that the
-// condition above is about to remove on its nodes, summed over the nodes this slab owns. (Each
-// particle's velocity changes by dt times the interpolated force per unit mass, so the gas's
-// momentum changes by dt times the sum of the node forces: what the condition removes, the body
-// takes.)
-// Its sums, 2 o + axis for obstacle o, in one reduction (one launch, one wait on a GPU, where there
-// were two an obstacle); each sums the same terms in the same order as a reduction of its own.
+// The sums of add_obstacle_forces below, 2 o + axis for obstacle o, in one reduction (one launch
+// and one wait on a GPU, where there were two an obstacle); each sums the same terms in the same
+// order as a reduction of its own.
 struct ObstacleForceSums {
   using value_type = double[];
   unsigned value_count;  // 2 x the obstacles (Kokkos' name: the length of an array reduction)
@@ -214,6 +210,11 @@ struct ObstacleForceSums {
   }
 };
 
+// The force the gas exerts on each obstacle: the normal component of the force that the
+// condition above is about to remove on its nodes, summed over the nodes this slab owns. (Each
+// particle's velocity changes by dt times the interpolated force per unit mass, so the gas's
+// momentum changes by dt times the sum of the node forces: what the condition removes, the body
+// takes.)
 void add_obstacle_forces(const ObstacleGrid& obstacles, const NodeFieldsView& state, ObstacleForces& forces) {
   const index_t count = obstacles.num_obstacle_nodes();
   const size_t num_obstacles = static_cast<size_t>(obstacles.num_obstacles);
@@ -221,11 +222,12 @@ void add_obstacle_forces(const ObstacleGrid& obstacles, const NodeFieldsView& st
   forces.y.assign(num_obstacles, 0.0);
   if (count == 0) return;
   std::vector<double> sums(2 * num_obstacles, 0.0);
+  double* result = sums.data();  // (an lvalue: Kokkos 4 takes the result by reference)
   Kokkos::parallel_reduce(
       "obstacle_force", Kokkos::RangePolicy<ExecutionSpace>(0, count),
       ObstacleForceSums{static_cast<unsigned>(sums.size()), obstacles.obstacle_nodes, obstacles.obstacle_of_node,
                         obstacles.obstacle_normals, state},
-      sums.data());
+      result);
   for (size_t o = 0; o < num_obstacles; ++o) {
     forces.x[o] = sums[2 * o];
     forces.y[o] = sums[2 * o + 1];

@@ -83,26 +83,34 @@ void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_
 
 namespace {
 
-// before_conditions(k, to_first + c) = state(conditioned_node(k), from_first + c) for c < count.
-void keep_columns(const char* label, const GridFields& fields, int from_first, int to_first, int count) {
+// A node vector (two state columns from `from`) kept in two before_conditions columns from `to`.
+struct KeptVector {
+  int from, to;
+};
+
+// before_conditions(k, kept[v].to + c) = state(conditioned_node(k), kept[v].from + c), c = 0, 1,
+// for the first `count` vectors: one launch for them all.
+void keep_vectors(const char* label, const GridFields& fields, Kokkos::Array<KeptVector, 2> kept, int count) {
   const NodeFieldsView state = fields.state, raw = fields.before_conditions;
   const IndexView node_of = fields.conditioned_node;
   Kokkos::parallel_for(
       label, Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(node_of.extent(0))),
       KOKKOS_LAMBDA(const index_t k) {
-        for (int c = 0; c < count; ++c) raw(k, to_first + c) = state(node_of(k), from_first + c);
+        for (int v = 0; v < count; ++v)
+          for (int c = 0; c < 2; ++c) raw(k, kept[v].to + c) = state(node_of(k), kept[v].from + c);
       });
 }
 
 }  // namespace
 
 void keep_momentum_and_force_before_conditions(const GridFields& fields) {
-  keep_columns("keep_momentum", fields, GridFields::momentum_x, GridFields::raw_momentum_x, 2);
-  keep_columns("keep_force", fields, GridFields::force_x, GridFields::raw_force_x, 2);
+  keep_vectors("keep_momentum_and_force", fields,
+               {{{GridFields::momentum_x, GridFields::raw_momentum_x}, {GridFields::force_x, GridFields::raw_force_x}}},
+               2);
 }
 
 void keep_remap_before_conditions(const GridFields& fields) {
-  keep_columns("keep_remap", fields, GridFields::momentum_x, GridFields::raw_remap_momentum_x, 2);
+  keep_vectors("keep_remap", fields, {{{GridFields::momentum_x, GridFields::raw_remap_momentum_x}, {0, 0}}}, 1);
 }
 
 double boundary_work(const GridFields& fields, real_t dt, real_t mass_threshold) {
