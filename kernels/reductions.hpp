@@ -4,6 +4,10 @@
 
 namespace mpmflow {
 
+// Where an array reduction (a functor with value_type = double[] and value_count) puts its totals:
+// host memory of the caller's (Kokkos 4 takes no raw pointer there, Kokkos 3.4 and 4 both a View).
+using HostTotals = Kokkos::View<double*, Kokkos::HostSpace, Kokkos::MemoryTraits<Kokkos::Unmanaged>>;
+
 // The number of particles for which predicate(p) holds.
 template <class ParticlePredicate>
 index_t count_particles(const char* label, index_t num_particles, const ParticlePredicate& pred) {

@@ -9,6 +9,7 @@
 
 #include "gas_physics.hpp"
 #include "kernels/index_lanes.hpp"
+#include "kernels/reductions.hpp"
 
 namespace mpmflow {
 namespace {
@@ -222,12 +223,11 @@ void add_obstacle_forces(const ObstacleGrid& obstacles, const NodeFieldsView& st
   forces.y.assign(num_obstacles, 0.0);
   if (count == 0) return;
   std::vector<double> sums(2 * num_obstacles, 0.0);
-  double* result = sums.data();  // (an lvalue: Kokkos 4 takes the result by reference)
   Kokkos::parallel_reduce(
       "obstacle_force", Kokkos::RangePolicy<ExecutionSpace>(0, count),
       ObstacleForceSums{static_cast<unsigned>(sums.size()), obstacles.obstacle_nodes, obstacles.obstacle_of_node,
                         obstacles.obstacle_normals, state},
-      result);
+      HostTotals(sums.data(), sums.size()));
   for (size_t o = 0; o < num_obstacles; ++o) {
     forces.x[o] = sums[2 * o];
     forces.y[o] = sums[2 * o + 1];

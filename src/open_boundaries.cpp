@@ -9,6 +9,7 @@
 #include <Kokkos_ScatterView.hpp>
 
 #include "kernels/index_lanes.hpp"
+#include "kernels/reductions.hpp"
 #include "kernels/particle_compaction.hpp"
 
 namespace mpmflow {
@@ -230,7 +231,7 @@ ConservationTotals totals_of_particles(const ParticleState& pt, const IndexView&
   double sums[Sum::num_totals] = {};
   Kokkos::parallel_reduce("open_side_totals", Kokkos::RangePolicy<ExecutionSpace>(0, count),
                           Sum{Sum::num_totals, pt.mass, pt.velocity_x, pt.velocity_y, pt.specific_energy, list, first},
-                          sums);
+                          HostTotals(sums, Sum::num_totals));
   totals.mass = sums[Sum::mass];
   totals.momentum_x = sums[Sum::momentum_x];
   totals.momentum_y = sums[Sum::momentum_y];

@@ -2,7 +2,8 @@
 
 #include "kernels/particle_compaction.hpp"
 
-#include <type_traits>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace mpmflow {
@@ -49,44 +50,38 @@ void exchange(const T* send, const std::vector<int>& send_counts, const std::vec
   }
   MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
 }
-#endif
 
-// The fields a particle carries to another rank: real(field, column) for each real field, columns
-// counted from 0, and id(field) for the id (the cells are recomputed on arrival). Returns the
-// number of real fields, so that pack and unpack agree on the layout by construction.
-template <class RealField, class IdField>
-int for_each_migrated_field(const ParticleState& pt, const RealField& real, const IdField& id) {
-  int column = 0;
-  pt.for_each_field([&](const auto& field) {
-    using View = std::decay_t<decltype(field)>;
-    if constexpr (std::is_same<typename View::value_type, real_t>::value) real(field, column++);
-    else if constexpr (std::is_same<View, ParticleIdView>::value) id(field);
-  });
-  return column;
-}
+// What a particle carries to another rank: its real fields, side by side (particle-major, in
+// WholeParticles' order: pack and unpack agree on the layout by construction), and its id apart;
+// its cell is recomputed on arrival. One launch each way for all the fields (a GPU pays a launch's
+// latency however few particles leave, and a slab's leave every step).
 
-// The per-field kernels of a migration, as named functions: nvcc does not allow a device lambda
-// inside the generic lambdas that visit the particle fields.
-
-// buffer(s * width + column) = field(order(s)) for s in [0, count).
-template <class FieldView, class BufferView>
-void pack_field(const FieldView& field, const IndexView& order, index_t count, const BufferView& buffer, int width,
-                int column) {
+// reals(s * R + f) = real field f of particle order(s), ids(s) = its id, for s in [0, count).
+void pack_particles(const WholeParticles& whole, const IndexView& order, index_t count, const RealView& reals,
+                    const ParticleIdView& ids) {
+  if (whole.num_ids != 1)
+    throw std::logic_error("migration: a particle has one id field, found " + std::to_string(whole.num_ids));
   Kokkos::parallel_for(
       "migration_pack", Kokkos::RangePolicy<ExecutionSpace>(0, count), KOKKOS_LAMBDA(const index_t s) {
-        buffer(static_cast<size_t>(s) * width + column) = field(order(s));
+        const index_t p = order(s);
+        const size_t row = static_cast<size_t>(s) * whole.num_reals;
+        for (int f = 0; f < whole.num_reals; ++f) reals(row + f) = whole.reals[f](p);
+        ids(s) = whole.ids[0](p);
       });
 }
 
-// field(first + s) = buffer(s * width + column) for s in [0, count).
-template <class FieldView, class BufferView>
-void unpack_field(const FieldView& field, index_t first, index_t count, const BufferView& buffer, int width,
-                  int column) {
+// The reverse into particles first + s, s in [0, count).
+void unpack_particles(const WholeParticles& whole, index_t first, index_t count, const RealView& reals,
+                      const ParticleIdView& ids) {
   Kokkos::parallel_for(
       "migration_unpack", Kokkos::RangePolicy<ExecutionSpace>(0, count), KOKKOS_LAMBDA(const index_t s) {
-        field(first + s) = buffer(static_cast<size_t>(s) * width + column);
+        const index_t p = first + s;
+        const size_t row = static_cast<size_t>(s) * whole.num_reals;
+        for (int f = 0; f < whole.num_reals; ++f) whole.reals[f](p) = reals(row + f);
+        whole.ids[0](p) = ids(s);
       });
 }
+#endif
 
 }  // namespace
 
@@ -123,12 +118,10 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const IndexView send_order = Kokkos::create_mirror_view_and_copy(MemorySpace(), send_order_host);
 
   // Pack: particle-major, the real fields of one particle side by side; ids apart.
-  const int F = for_each_migrated_field(pt, [](const RealView&, int) {}, [](const ParticleIdView&) {});
+  const int F = WholeParticles(pt).num_reals;
   RealView send_reals("migration_send_reals", static_cast<size_t>(num_leaving) * F);
   ParticleIdView send_ids("migration_send_ids", num_leaving);
-  for_each_migrated_field(
-      pt, [&](const RealView& field, const int column) { pack_field(field, send_order, num_leaving, send_reals, F, column); },
-      [&](const ParticleIdView& field) { pack_field(field, send_order, num_leaving, send_ids, 1, 0); });
+  pack_particles(WholeParticles(pt), send_order, num_leaving, send_reals, send_ids);
 
   // Counts, then data: with the neighbouring slabs alone where every rank sends only to them (as
   // in a step, where no particle moves more than a cell), with every rank otherwise (recycling
@@ -192,12 +185,8 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const index_t new_count = staying + num_arriving;
   pt.grow_to_hold(new_count);
   pt.count = new_count;
-  for_each_migrated_field(
-      pt,
-      [&](const RealView& field, const int column) {
-        unpack_field(field, staying, num_arriving, receive_reals, F, column);
-      },
-      [&](const ParticleIdView& field) { unpack_field(field, staying, num_arriving, receive_ids, 1, 0); });
+  // (After the growth: WholeParticles holds the grown Views.)
+  unpack_particles(WholeParticles(pt), staying, num_arriving, receive_reals, receive_ids);
   update_cell_map(slab.geometry, pt, staying);  // (cells do not travel: they are local)
   return num_leaving;
 #else
