@@ -15,8 +15,9 @@
 //
 // With --launch-census, each step row runs its steps once more, untimed, counting what a step
 // launches (kernel_launches_per_step, of them reductions_per_step) and copies between Views
-// (view_copies_per_step): on a GPU each costs microseconds of latency whatever its size, which at
-// small sizes bounds the step more than its bytes do. The counts are the back-end's path (a CPU
+// (view_copies_per_step), and the Kokkos allocations it makes (allocations_per_step): on a GPU each
+// costs microseconds of latency whatever its size, which at small sizes bounds the step more than
+// its bytes do. The counts are the back-end's path (a CPU
 // build takes the sorted P2G and its own selections; a GPU build the atomic P2G and scans).
 //
 // "Without reordering" starts from particles in random order, as after a long run in which
@@ -366,15 +367,17 @@ struct StepRowExtras {
 // the queue they overlap in.
 void count_launches(benchmark::State& state, const Run& run, Solver& solver, long steps, bool by_label) {
   const LaunchCensus census(by_label);
+  const long long allocations_before = allocations().allocation_count();
   for (long k = 0; k < steps; ++k) solver.advance(solver.stable_time_step());
+  const double allocations_per_step = double(allocations().allocation_count() - allocations_before) / steps;
   state.counters["kernel_launches_per_step"] = double(census.launches()) / steps;
   state.counters["reductions_per_step"] = double(census.reductions()) / steps;
   state.counters["view_copies_per_step"] = double(census.view_copies()) / steps;
+  state.counters["allocations_per_step"] = allocations_per_step;
   if (!by_label) return;
-  std::fprintf(stderr, "launches of BM_Step/%s a step: %.2f (%.2f reductions), %.2f View copies\n",
-               run.spec.key().c_str(),
-               double(census.launches()) / steps, double(census.reductions()) / steps,
-               double(census.view_copies()) / steps);
+  std::fprintf(stderr, "launches of BM_Step/%s a step: %.2f (%.2f reductions), %.2f View copies, %.2f allocations\n",
+               run.spec.key().c_str(), double(census.launches()) / steps, double(census.reductions()) / steps,
+               double(census.view_copies()) / steps, allocations_per_step);
   for (const auto& [label, count] : census.by_label())
     std::fprintf(stderr, "  %8.2f  %s\n", double(count) / steps, label.c_str());
 }
@@ -594,7 +597,7 @@ void register_benchmarks(const std::vector<std::string>& shapes, const std::vect
 //   --matrix-only   only the matrix (grid sizes x ppc x ordering), not the target-size variants
 //   --memory-breakdown  after each step row, the allocations at its peak by label (on stderr)
 //   --launch-census after each step row's timing, its steps again (untimed) with the kernel launches,
-//                   reductions and View copies counted: kernel_launches_per_step, ...
+//                   reductions, View copies and allocations counted: kernel_launches_per_step, ...
 //   --launch-breakdown  the same, and the counts by kernel label (on stderr)
 //   --steps=N       steps per row (default 20)
 //   --set PATH=VALUE  (or --set=PATH=VALUE; repeatable) a case-file setting for every row, as

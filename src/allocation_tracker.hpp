@@ -33,6 +33,9 @@ class AllocationTracker {
   long long current() const { return current_; }
   // The most `current` has been since the start or the last reset_peak.
   long long peak() const { return peak_; }
+  // Allocations counted since the start (on a GPU each costs more than a small kernel, and its
+  // free may wait for the device: a step that allocates pays it every step).
+  long long allocation_count() const { return allocation_count_; }
   void reset_peak() {
     peak_ = current_;
     record_peak();
@@ -59,6 +62,7 @@ class AllocationTracker {
       return;
     }
     t.live_[ptr] = {size, label};
+    ++t.allocation_count_;
     t.current_ += static_cast<long long>(size);
     if (t.current_ > t.peak_) {
       t.peak_ = t.current_;
@@ -95,7 +99,7 @@ class AllocationTracker {
   std::map<const void*, Allocation> live_;
   std::map<const void*, std::uint64_t> uncounted_;
   std::map<std::string, long long> peak_by_label_;
-  long long current_ = 0, peak_ = 0, freed_from_before_ = 0;
+  long long current_ = 0, peak_ = 0, freed_from_before_ = 0, allocation_count_ = 0;
   // The callbacks come from whichever thread allocates: Kokkos' OpenMP back-end has its threads
   // allocate their own scratch ("[unlabeled]"), two at once was seen, and two insertions into
   // live_ at once had corrupted the heap now and then.

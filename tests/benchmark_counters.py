@@ -77,7 +77,8 @@ SET_ROWS = ["--cells=2000", "--matrix-only", "--shapes=linear", "--steps=3", "--
             "--set", SETTING, "--memory-breakdown", "--launch-breakdown"]
 # "peak allocations of BM_Step/KEY: TOTAL B a particle (live before the run: BEFORE)", then a line a label.
 # "launches of BM_Step/KEY a step: L (R reductions), C View copies", then a line a label.
-LAUNCHES = re.compile(r"^launches of (BM_Step/\S+) a step: ([0-9.]+) \(([0-9.]+) reductions\), ([0-9.]+) View copies$")
+LAUNCHES = re.compile(r"^launches of (BM_Step/\S+) a step: ([0-9.]+) \(([0-9.]+) reductions\), ([0-9.]+) View copies, "
+                      r"([0-9.]+) allocations$")
 BREAKDOWN = re.compile(r"^peak allocations of (BM_Step/\S+): ([0-9.]+) B a particle \(live before the run: ([0-9.]+)\)$")
 
 
@@ -172,14 +173,17 @@ def check_launches(stderr, rows):
             fail(f"--launch-breakdown: {m.group(1)} names no step row that reported")
             continue
         row = rows[name]
-        launches, reductions, copies = (row.get(c) for c in ("kernel_launches_per_step", "reductions_per_step",
-                                                             "view_copies_per_step"))
+        launches, reductions, copies, allocated = (row.get(c) for c in (
+            "kernel_launches_per_step", "reductions_per_step", "view_copies_per_step", "allocations_per_step"))
         if not (isinstance(launches, (int, float)) and launches > 0 and isinstance(reductions, (int, float))
-                and 0 <= reductions <= launches and isinstance(copies, (int, float)) and copies >= 0):
-            fail(f"--launch-breakdown: {name}: launches {launches!r}, reductions {reductions!r}, copies {copies!r}: "
-                 f"expected launches above zero, reductions among them, copies not below zero")
+                and 0 <= reductions <= launches and isinstance(copies, (int, float)) and copies >= 0
+                and isinstance(allocated, (int, float)) and allocated >= 0):
+            fail(f"--launch-breakdown: {name}: launches {launches!r}, reductions {reductions!r}, copies {copies!r}, "
+                 f"allocations {allocated!r}: expected launches above zero, reductions among them, copies and "
+                 f"allocations not below zero")
             continue
-        for printed, counter in ((m.group(2), launches), (m.group(3), reductions), (m.group(4), copies)):
+        for printed, counter in ((m.group(2), launches), (m.group(3), reductions), (m.group(4), copies),
+                                 (m.group(5), allocated)):
             if abs(float(printed) - counter) > 0.006:
                 fail(f"--launch-breakdown: {name}: {printed} printed, the counter is {counter}")
         by_label, labels = 0.0, 0
