@@ -558,14 +558,9 @@ TEST(OpenSides, ParticlesLeavingAreRemovedAndCounted) {
   EXPECT_NEAR(open_sides.fluxes().entered.mass, 48 * 1.4 * 0.01 / 4, 1e-12);
 }
 
-// The particle Views grow as the gas entering and splitting need (grow_to_hold): every field of the
-// particles in use is kept, entry by entry, and keeps its label (the profiling regions and the
-// allocation counts name the fields by it).
-TEST(ParticleStorage, GrowingKeepsEveryFieldOfTheParticlesInUse) {
-  const index_t n = 1000, in_use = 700;
-  ParticleState pt(n);
-  pt.count = in_use;
-  // Field f's entry p: 1000 f + p (distinct across fields and particles; exact in every field type).
+// Field f's entry p of the first n: 1000 f + p (distinct across fields and particles; exact in every
+// field type), so that an entry tells which field and particle it came from.
+void number_every_field(const ParticleState& pt, index_t n) {
   int f = 0;
   pt.for_each_field([&](const auto& field) {
     auto h = Kokkos::create_mirror_view(field);
@@ -573,13 +568,23 @@ TEST(ParticleStorage, GrowingKeepsEveryFieldOfTheParticlesInUse) {
     Kokkos::deep_copy(field, h);
     ++f;
   });
+}
+
+// The particle Views grow as the gas entering and splitting need (grow_to_hold): every field of the
+// particles in use is kept, entry by entry, and keeps its label (the profiling regions and the
+// allocation counts name the fields by it).
+TEST(ParticleStorage, GrowingKeepsEveryFieldOfTheParticlesInUse) {
+  const index_t n = 1000, in_use = 700;
+  ParticleState pt(n);
+  pt.count = in_use;
+  number_every_field(pt, n);
   std::vector<std::string> labels;
   pt.for_each_field([&](const auto& field) { labels.push_back(field.label()); });
 
   pt.grow_to_hold(2 * n);
   EXPECT_GE(pt.capacity(), 2 * n);
   EXPECT_EQ(pt.count, in_use);
-  f = 0;
+  int f = 0;
   pt.for_each_field([&](const auto& field) {
     SCOPED_TRACE(field.label());
     EXPECT_EQ(field.label(), labels[static_cast<size_t>(f)]);
@@ -599,14 +604,7 @@ TEST(ParticleStorage, CopyParticlesCopiesEveryFieldInOneLaunch) {
   const index_t n = 100;
   ParticleState pt(n);
   pt.count = n;
-  // Field f's entry p: 1000 f + p (distinct across fields and particles; exact in every field type).
-  int f = 0;
-  pt.for_each_field([&](const auto& field) {
-    auto h = Kokkos::create_mirror_view(field);
-    for (index_t p = 0; p < n; ++p) h(p) = 1000 * f + p;
-    Kokkos::deep_copy(field, h);
-    ++f;
-  });
+  number_every_field(pt, n);
   // Particles 3 and 7 to 90 and 95; particles 10, 11 and 12 to 50, 51 and 52.
   const IndexView to = to_device_indices("copy_to", {90, 95}), from = to_device_indices("copy_from", {3, 7});
   const IndexView from_run = to_device_indices("copy_from_run", {10, 11, 12});
@@ -619,7 +617,7 @@ TEST(ParticleStorage, CopyParticlesCopiesEveryFieldInOneLaunch) {
   }
   EXPECT_EQ(copy_launches, 2);
   const std::map<index_t, index_t> source_of = {{90, 3}, {95, 7}, {50, 10}, {51, 11}, {52, 12}};
-  f = 0;
+  int f = 0;
   pt.for_each_field([&](const auto& field) {
     SCOPED_TRACE(field.label());
     auto h = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), field);
