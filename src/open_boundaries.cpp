@@ -9,8 +9,8 @@
 #include <Kokkos_ScatterView.hpp>
 
 #include "kernels/index_lanes.hpp"
-#include "kernels/reductions.hpp"
 #include "kernels/particle_compaction.hpp"
+#include "kernels/reductions.hpp"
 
 namespace mpmflow {
 namespace {
@@ -202,8 +202,9 @@ void add_far_field_strip_volumes(const FarFieldStrips& strips, const ParticleSta
   Kokkos::Experimental::contribute(target, scatter);
 }
 
-// The sums of totals_of_particles in one reduction (one launch, one wait for its result on a GPU,
-// where five made five), each in the order of its own: the same bits as one reduction a total.
+// The sums of totals_of_particles in one reduction (one launch, and one wait for its result on a
+// GPU, where there were five), each total summed in the order its own reduction summed it: the
+// same bits.
 struct ParticleTotalsSum {
   using value_type = double[];
   enum Total : int { mass, momentum_x, momentum_y, kinetic_energy, internal_energy, num_totals };
