@@ -3,6 +3,7 @@
 // phase table prints. Checked through the Kokkos Tools region callbacks.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <set>
 #include <string>
 #include <vector>
@@ -96,6 +97,34 @@ TEST(Profiling, TheLaunchCensusCountsLaunchesReductionsAndViewCopies) {
   // The three launches above, and at most the fill's own.
   EXPECT_GE(census.launches(), 3);
   EXPECT_LE(census.launches(), 4);
+}
+
+// No kernel of a step is launched once a particle field: particles move whole (splitting's halves,
+// the open sides' hole filling) and the open sides' totals are one reduction, where a launch a field
+// or a total made a dozen launches of a kind a step (on a GPU each costs microseconds however
+// little it does). Kokkos' own fills and initialisations aside, and the reorder's (one field at a
+// time by design: it holds one field twice at most, not all of them).
+TEST(Profiling, NoKernelOfAStepIsLaunchedOnceAParticleField) {
+  const CaseConfig config = load_case_file(std::string(MPMFLOW_SOURCE_DIR) + "/cases/cylinder_mach3.json",
+                                           {"domain/cells_x=40", "domain/cells_y=20", "numerics/reorder_interval=0"});
+  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+  Solver solver(config, slab, create_initial_particles(config, slab));
+  for (int k = 0; k < 30; ++k) solver.advance(solver.stable_time_step());  // a wake that splits
+  int fields = 0;
+  solver.particles().for_each_field([&](const auto&) { ++fields; });
+  constexpr int steps = 5;
+  std::map<std::string, long long> launches;
+  {
+    const LaunchCensus census(/*by_label=*/true);
+    for (int k = 0; k < steps; ++k) solver.advance(solver.stable_time_step());
+    launches = census.by_label();
+  }
+  for (const char* covered : {"split_copy", "particle_fill_holes", "open_side_totals"})
+    EXPECT_TRUE(launches.count(covered)) << covered << " not launched: the test does not cover it";
+  for (const auto& [label, count] : launches) {
+    if (label.rfind("Kokkos::", 0) == 0 || label.rfind("copy ", 0) == 0) continue;
+    EXPECT_LT(count, steps * fields) << label << ": " << count << " launches in " << steps << " steps";
+  }
 }
 
 TEST(Profiling, UnfusedKernelsAreRegionsOfTheirOwn) {
