@@ -9,16 +9,12 @@
 namespace mpmflow {
 namespace {
 
-using HostIndexView = Kokkos::View<index_t*, Kokkos::HostSpace>;
-
 #ifdef MPMFLOW_HAVE_MPI
 // The rank each particle belongs to: the owner (SlabDecomposition::owner_of_cell, the same
 // function on the device) of its global cell along the decomposition axis, which the slab it was
 // last in computes from its position.
-void find_destinations(const ParticleState& pt, const GridSlab& slab, const SlabDecomposition& d,
-                       const IndexView& destination) {
-  const int axis = d.axis;
-  const SlabDecomposition::DeviceOwners owners = d.device_owners();
+void find_destinations(const ParticleState& pt, const GridSlab& slab, int axis,
+                       const SlabDecomposition::DeviceOwners& owners, const IndexView& destination) {
   const RealView x = pt.position_x, y = pt.position_y;
   Kokkos::parallel_for(
       "migration_destination", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
@@ -93,35 +89,49 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const index_t n = pt.count;
   if (static_cast<index_t>(destination_.extent(0)) < n) destination_ = IndexView("migration_destination", pt.capacity());
   const IndexView destination = destination_;
-  find_destinations(pt, slab, d, destination);
-  const IndexView leaving = select_indices(
-      "migration_leaving", 0, n, KOKKOS_LAMBDA(const index_t p) { return destination(p) != rank; });
+  if (!owners_.cell_begin.data() || owners_of_ != d) {  // (made again only where the slabs changed)
+    owners_ = d.device_owners();
+    owners_of_ = d;
+  }
+  find_destinations(pt, slab, d.axis, owners_, destination);
+  const auto leaves = KOKKOS_LAMBDA(const index_t p) { return destination(p) != rank; };
+  const IndexView leaving = select_indices("migration_leaving", 0, n, leaves, leaving_);
   const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
+  const size_t leaving_count = static_cast<size_t>(num_leaving);
 
   // Leaving particles grouped by destination, in index order within each group (a counting sort
   // of the few leaving particles on the host: their destinations are gathered first, so that only
   // they cross to the host, not every particle's).
-  IndexView leaving_destination("migration_leaving_destination", num_leaving);
+  leaving_destination_.hold(leaving_count, "migration_leaving_destination");
+  const IndexView leaving_destination = leaving_destination_.part(leaving_count);
   Kokkos::parallel_for(
       "migration_leaving_destination", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving),
       KOKKOS_LAMBDA(const index_t k) { leaving_destination(k) = destination(leaving(k)); });
-  auto leaving_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), leaving);
-  auto destination_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), leaving_destination);
+  leaving_on_host_.hold(leaving_count, "migration_leaving_on_host");
+  const auto leaving_host = leaving_on_host_.part(leaving_count);
+  const auto destination_host = leaving_destination_.host_part(leaving_count);
+  Kokkos::deep_copy(leaving_host, leaving);
+  Kokkos::deep_copy(destination_host, leaving_destination);
   std::vector<int> send_counts(ranks, 0), send_offsets(ranks + 1, 0);
   for (index_t k = 0; k < num_leaving; ++k) ++send_counts[destination_host(k)];
   for (int r = 0; r < ranks; ++r) send_offsets[r + 1] = send_offsets[r] + send_counts[r];
-  HostIndexView send_order_host("migration_send_order", num_leaving);
+  send_order_.hold(leaving_count, "migration_send_order");
+  const auto send_order_host = send_order_.host_part(leaving_count);
   {
     std::vector<int> next(send_offsets.begin(), send_offsets.end() - 1);
     for (index_t k = 0; k < num_leaving; ++k) send_order_host(next[destination_host(k)]++) = leaving_host(k);
   }
-  const IndexView send_order = Kokkos::create_mirror_view_and_copy(MemorySpace(), send_order_host);
+  const IndexView send_order = send_order_.part(leaving_count);
+  Kokkos::deep_copy(send_order, send_order_host);
 
   // Pack: particle-major, the real fields of one particle side by side; ids apart.
-  const int F = WholeParticles(pt).num_reals;
-  RealView send_reals("migration_send_reals", static_cast<size_t>(num_leaving) * F);
-  ParticleIdView send_ids("migration_send_ids", num_leaving);
-  pack_particles(WholeParticles(pt), send_order, num_leaving, send_reals, send_ids);
+  const WholeParticles leaving_fields(pt);
+  const int F = leaving_fields.num_reals;
+  send_reals_.hold(leaving_count * F, "migration_send_reals");
+  send_ids_.hold(leaving_count, "migration_send_ids");
+  const RealView send_reals = send_reals_.part(leaving_count * F);
+  const ParticleIdView send_ids = send_ids_.part(leaving_count);
+  pack_particles(leaving_fields, send_order, num_leaving, send_reals, send_ids);
 
   // Counts, then data: with the neighbouring slabs alone where every rank sends only to them (as
   // in a step, where no particle moves more than a cell), with every rank otherwise (recycling
@@ -140,15 +150,18 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   }
   for (int r = 0; r < ranks; ++r) receive_offsets[r + 1] = receive_offsets[r] + receive_counts[r];
   const index_t num_arriving = receive_offsets[ranks];
-  RealView receive_reals("migration_receive_reals", static_cast<size_t>(num_arriving) * F);
-  ParticleIdView receive_ids("migration_receive_ids", num_arriving);
+  const size_t arriving_count = static_cast<size_t>(num_arriving);
+  receive_reals_.hold(arriving_count * F, "migration_receive_reals");
+  receive_ids_.hold(arriving_count, "migration_receive_ids");
+  const RealView receive_reals = receive_reals_.part(arriving_count * F);
+  const ParticleIdView receive_ids = receive_ids_.part(arriving_count);
   {
     const bool direct =
         context.gpu_aware || Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
-    auto send_reals_host = Kokkos::create_mirror_view(send_reals);
-    auto send_ids_host = Kokkos::create_mirror_view(send_ids);
-    auto receive_reals_host = Kokkos::create_mirror_view(receive_reals);
-    auto receive_ids_host = Kokkos::create_mirror_view(receive_ids);
+    const auto send_reals_host = send_reals_.host_part(leaving_count * F);
+    const auto send_ids_host = send_ids_.host_part(leaving_count);
+    const auto receive_reals_host = receive_reals_.host_part(arriving_count * F);
+    const auto receive_ids_host = receive_ids_.host_part(arriving_count);
     if (!direct) {
       Kokkos::deep_copy(send_reals_host, send_reals);
       Kokkos::deep_copy(send_ids_host, send_ids);
@@ -176,8 +189,7 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
 
   // Close the holes: the leaving particles below the new count take the staying particles
   // above it, both in index order.
-  const HoleFilling plan =
-      plan_hole_filling(n, leaving, KOKKOS_LAMBDA(const index_t p) { return destination(p) != rank; });
+  const HoleFilling plan = plan_hole_filling(n, leaving, leaves, fillers_);
   copy_particles("particle_fill_holes", pt, plan.holes, 0, plan.fillers, plan.count);
   const index_t staying = plan.staying;
 

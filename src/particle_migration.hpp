@@ -10,7 +10,33 @@
 #include "parallel.hpp"
 #include "particles.hpp"
 
+#include <string>
+#include <utility>
+
 namespace mpmflow {
+
+// A View kept from one migration to the next, with its host mirror (the View itself where the
+// particles are in host memory): a slab's particles leave every step, and on a GPU an allocation
+// costs more than the kernels of a migration, and a free may wait for the device. hold(n) grows
+// it where it has fewer than n entries, and makes it again smaller where n is under a quarter of
+// them (after a rebalancing moved many particles, the steps' few do not keep that memory for the
+// rest of the run); part(n) and host_part(n) are its first n entries.
+template <class ViewType>
+struct KeptBuffer {
+  ViewType device;
+  typename ViewType::HostMirror host;
+  void hold(size_t n, const char* label) {
+    const size_t have = device.extent(0);
+    if (have >= n && have <= 4 * n + 1024) return;
+    // (Not initialised: each use writes the entries it reads.)
+    device = ViewType(Kokkos::view_alloc(std::string(label), Kokkos::WithoutInitializing), n + n / 4);
+    host = Kokkos::create_mirror_view(device);
+  }
+  ViewType part(size_t n) const { return Kokkos::subview(device, std::make_pair(size_t(0), n)); }
+  typename ViewType::HostMirror host_part(size_t n) const {
+    return Kokkos::subview(host, std::make_pair(size_t(0), n));
+  }
+};
 
 class ParticleMigration {
  public:
@@ -29,6 +55,14 @@ class ParticleMigration {
  private:
   IndexView destination_;
   bool last_exchange_neighbours_only_ = false;
+  SlabDecomposition owners_of_;               // the slabs owners_ was made for
+  SlabDecomposition::DeviceOwners owners_;    // their first cells on the device
+  // Kept from call to call (KeptBuffer; the selections' lists grow only, select_indices).
+  IndexView leaving_, fillers_;
+  KeptBuffer<IndexView> leaving_destination_, send_order_;
+  KeptBuffer<Kokkos::View<index_t*, Kokkos::HostSpace>> leaving_on_host_;  // (host memory alone)
+  KeptBuffer<RealView> send_reals_, receive_reals_;
+  KeptBuffer<ParticleIdView> send_ids_, receive_ids_;
 };
 
 }  // namespace mpmflow

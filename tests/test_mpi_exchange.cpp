@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "allocation_tracker.hpp"
 #include "counter_random.hpp"
 #include "grid.hpp"
 #include "halo_exchange.hpp"
@@ -232,6 +233,31 @@ TEST(ParticleMigration, ParticlesFollowTheSlabsWhenTheyMove) {
   const SlabDecomposition moved = SlabDecomposition::balanced(0, per_column, ranks);
   EXPECT_TRUE(ranks == 1 || moved != even);
   check_migration(config, even, moved);
+}
+
+// A slab's particles leave every step: once its buffers have grown, a migration of as many
+// particles allocates nothing (on a GPU an allocation costs more than the migration's kernels, and
+// a free may wait for the device).
+TEST(ParticleMigration, ASecondMigrationOfAsManyParticlesAllocatesNothing) {
+  const ParallelContext context;
+  const int ranks = context.size(), rank = context.rank();
+  const CaseConfig config = config_for(4 * ranks, 3, 0);
+  const SlabDecomposition d = SlabDecomposition::even(config, ranks);
+  const GridSlab slab = make_grid_slab(config.domain, d.axis, d.begin(rank), d.end(rank));
+  const index_t made = 40 + 7 * rank;
+  ParticleMigration migration;
+  long long allocated = -1;
+  long sent = 0;
+  for (int round = 0; round < 2; ++round) {
+    ParticleState pt = scattered_particles(config, rank, made, &d);  // the same particles each round
+    pt.reserve(4 * made);  // room for the arrivals: the particle Views do not grow
+    update_cell_map(slab.geometry, pt);
+    const AllocationTracker allocations;
+    sent = migration.migrate(pt, slab, d, context);
+    allocated = allocations.allocation_count();
+  }
+  if (ranks > 1) EXPECT_GT(context.sum(sent), 0) << "nothing moved: the test covers nothing";
+  EXPECT_EQ(allocated, 0) << "rank " << rank << ": allocations in the second migration";
 }
 
 }  // namespace
