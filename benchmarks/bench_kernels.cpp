@@ -17,8 +17,8 @@
 // launches (kernel_launches_per_step, of them reductions_per_step) and copies between Views
 // (view_copies_per_step), and the Kokkos allocations it makes (allocations_per_step): on a GPU each
 // costs microseconds of latency whatever its size, which at small sizes bounds the step more than
-// its bytes do. The counts are the back-end's path (a CPU
-// build takes the sorted P2G and its own selections; a GPU build the atomic P2G and scans).
+// its bytes do. The counts are the back-end's path (a CPU build takes the sorted P2G and its own
+// selections; a GPU build the atomic P2G and scans).
 //
 // "Without reordering" starts from particles in random order, as after a long run in which
 // recycling has scattered them (freshly created particles are in cell order and would hide the
@@ -78,10 +78,10 @@
 #include <vector>
 
 #include "allocation_tracker.hpp"
-#include "launch_census.hpp"
 #include "case_config.hpp"
 #include "host_memory.hpp"
 #include "kernels/particle_sort.hpp"
+#include "launch_census.hpp"
 #include "particles.hpp"
 #include "solver.hpp"
 
@@ -362,9 +362,9 @@ struct StepRowExtras {
 };
 
 // After a step row's timed steps, as many again under a launch census (launch_census.hpp): the
-// kernel launches, reductions and View copies a step makes. Not timed: Kokkos fences before each
-// launch while a census is installed (its tools' default), which would take a GPU's launches out of
-// the queue they overlap in.
+// kernel launches, reductions, View copies and allocations a step makes. Not timed: Kokkos fences
+// before each launch while a census is installed (its tools' default), which would take a GPU's
+// launches out of the queue they overlap in.
 void count_launches(benchmark::State& state, const Run& run, Solver& solver, long steps, bool by_label) {
   const LaunchCensus census(by_label);
   const long long allocations_before = allocations().allocation_count();

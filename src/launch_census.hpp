@@ -45,9 +45,9 @@ class LaunchCensus {
   // Of those, the reductions and scans: each has a total, which the host mostly reads.
   long long reductions() const { return reductions_; }
   // deep_copy between two Views (not fills from a scalar: Kokkos fills with a kernel of its own,
-  // counted as a launch, or a memset). Between host
-  // and device memory on a GPU, a transfer the host waits for; on CPUs mostly a View onto itself
-  // (a mirror that is the View), counted all the same, so that the count is the program's.
+  // counted as a launch, or a memset). Between host and device memory on a GPU, a transfer the
+  // host waits for; on CPUs mostly a View onto itself (a mirror that is the View), counted all the
+  // same, so that the count is the program's.
   long long view_copies() const { return view_copies_; }
   // The counts by label ("copy DST <- SRC" for a copy), where by_label was set.
   const std::map<std::string, long long>& by_label() const { return by_label_counts_; }
