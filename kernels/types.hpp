@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Kokkos_Core.hpp>
@@ -49,6 +50,29 @@ inline IndexView to_device_indices(const char* label, const std::vector<index_t>
   Kokkos::deep_copy(device, mirror);
   return device;
 }
+
+// A View kept from call to call for work done every step (a migration's buffers, splitting's new
+// ids), with its host mirror (the View itself where the memory space is the host's): on a GPU an
+// allocation costs more than the kernels of such a step, and a free may wait for the device.
+// hold(n) makes it again where it has fewer than n entries, or where n is under a quarter of them
+// (after a rebalancing moved many particles, the steps' few do not keep that memory for the rest
+// of the run), with a quarter to spare; part(n) and host_part(n) are its first n entries. Not
+// initialised: each use writes the entries it reads.
+template <class ViewType>
+struct KeptBuffer {
+  ViewType device;
+  typename ViewType::HostMirror host;
+  void hold(size_t n, const char* label) {
+    const size_t have = device.extent(0);
+    if (have >= n && have <= 4 * n + 1024) return;
+    device = ViewType(Kokkos::view_alloc(std::string(label), Kokkos::WithoutInitializing), n + n / 4);
+    host = Kokkos::create_mirror_view(device);
+  }
+  ViewType part(size_t n) const { return Kokkos::subview(device, std::make_pair(size_t(0), n)); }
+  typename ViewType::HostMirror host_part(size_t n) const {
+    return Kokkos::subview(host, std::make_pair(size_t(0), n));
+  }
+};
 
 // Whether a run reorders the particle arrays by cell as it goes (numerics/reorder_interval > 0), or
 // leaves them in the order they drift into: the CPU walk's tiles are chosen for it

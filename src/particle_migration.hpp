@@ -10,33 +10,7 @@
 #include "parallel.hpp"
 #include "particles.hpp"
 
-#include <string>
-#include <utility>
-
 namespace mpmflow {
-
-// A View kept from one migration to the next, with its host mirror (the View itself where the
-// particles are in host memory): a slab's particles leave every step, and on a GPU an allocation
-// costs more than the kernels of a migration, and a free may wait for the device. hold(n) grows
-// it where it has fewer than n entries, and makes it again smaller where n is under a quarter of
-// them (after a rebalancing moved many particles, the steps' few do not keep that memory for the
-// rest of the run); part(n) and host_part(n) are its first n entries.
-template <class ViewType>
-struct KeptBuffer {
-  ViewType device;
-  typename ViewType::HostMirror host;
-  void hold(size_t n, const char* label) {
-    const size_t have = device.extent(0);
-    if (have >= n && have <= 4 * n + 1024) return;
-    // (Not initialised: each use writes the entries it reads.)
-    device = ViewType(Kokkos::view_alloc(std::string(label), Kokkos::WithoutInitializing), n + n / 4);
-    host = Kokkos::create_mirror_view(device);
-  }
-  ViewType part(size_t n) const { return Kokkos::subview(device, std::make_pair(size_t(0), n)); }
-  typename ViewType::HostMirror host_part(size_t n) const {
-    return Kokkos::subview(host, std::make_pair(size_t(0), n));
-  }
-};
 
 class ParticleMigration {
  public:

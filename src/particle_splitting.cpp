@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <string>
-#include <utility>
 #include <vector>
 
 namespace mpmflow {
@@ -79,21 +78,17 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
 
   // The halves' ids: -1 - 2 n and -2 - 2 n, n = splits so far + the rank of their parent's id among
   // all parents.
-  // (In a View kept from step to step, grown where it is too short: splitting runs every step, and an
-  // allocation on a GPU costs more than the kernels of a split.)
-  if (static_cast<index_t>(new_id_.extent(0)) < num_local) {
-    new_id_ = ParticleIdView("split_new_id", static_cast<size_t>(num_local + num_local / 4));
-    new_id_host_ = Kokkos::create_mirror_view(new_id_);
-  }
-  const auto in_use = std::make_pair(index_t(0), num_local);
-  const ParticleIdView new_id = Kokkos::subview(new_id_, in_use);
+  // (In a View kept from step to step: splitting runs every step.)
+  const size_t num_new = static_cast<size_t>(num_local);
+  new_id_.hold(num_new, "split_new_id");
+  const ParticleIdView new_id = new_id_.part(num_new);
   {
     const ParticleIdView id = particles.id;
     const IndexView parent = parent_;
     Kokkos::parallel_for(
         "split_parent_ids", Kokkos::RangePolicy<ExecutionSpace>(0, num_local),
         KOKKOS_LAMBDA(const index_t k) { new_id(k) = id(parent(k)); });
-    const auto host = Kokkos::subview(new_id_host_, in_use);
+    const auto host = new_id_.host_part(num_new);
     Kokkos::deep_copy(host, new_id);
     std::vector<long long> local(host.data(), host.data() + num_local);
     std::vector<long long> all = context.all_gather(local);

@@ -58,8 +58,7 @@ class ParticleSplitting {
   real_t initial_volume_ = 0;                       // a cell over the particles per cell
   long long splits_ = 0;
   IndexView parent_;  // this step's splitting particles, in index order
-  ParticleIdView new_id_;  // their halves' ids (the first of each pair), and its host mirror
-  ParticleIdView::HostMirror new_id_host_;
+  KeptBuffer<ParticleIdView> new_id_;  // their halves' ids (the first of each pair)
 };
 
 }  // namespace mpmflow
