@@ -9,6 +9,7 @@ figures' values are not checked, only that each row ran and that its counters ag
 
 Usage: benchmark_counters.py MPMFLOW_BENCHMARKS WORK_DIR
 """
+import itertools
 import json
 import math
 import os
@@ -126,52 +127,53 @@ def check_rows(benchmarks, work_dir, options, label, case_overrides):
     return {name: rows.get(name) for name in expected}
 
 
-def check_breakdown(stderr, rows):
-    """--memory-breakdown: each step row's allocations at its peak, whose total less what was live
-    before the run is the row's peak_alloc_B_per_particle, the particle fields among them."""
+def step_row_breakdowns(option, header, stderr, rows):
+    """What `option` prints on stderr after each step row: a line `header` matches (its first group
+    the row's name without its last part), then a line a label, indented. Yields the row's name, the
+    header's match and the label lines, for each such block that names a row that reported."""
     lines = stderr.splitlines()
-    checked = 0
     for k, line in enumerate(lines):
-        m = BREAKDOWN.match(line)
+        m = header.match(line)
         if not m:
             continue
         name = next((n for n in rows if n.startswith(m.group(1) + "/")), None)
         if name is None:
-            fail(f"--memory-breakdown: {m.group(1)} names no step row that reported")
+            fail(f"{option}: {m.group(1)} names no step row that reported")
             continue
+        yield name, m, list(itertools.takewhile(lambda entry: entry.startswith("  "), lines[k + 1:]))
+
+
+def expect_every_step_row(option, checked, rows, what):
+    """`checked` of the step rows passed `option`'s checks: all of them, or a failure."""
+    steps = [n for n in rows if n.startswith("BM_Step/")]
+    if checked != len(steps):
+        fail(f"{option}: {checked} checked for {len(steps)} step rows")
+    else:
+        print(f"{option}: {checked} step rows' {what}")
+
+
+def check_breakdown(stderr, rows):
+    """--memory-breakdown: each step row's allocations at its peak, whose total less what was live
+    before the run is the row's peak_alloc_B_per_particle, the particle fields among them."""
+    checked = 0
+    for name, m, entries in step_row_breakdowns("--memory-breakdown", BREAKDOWN, stderr, rows):
         total, before = float(m.group(2)), float(m.group(3))
         peak = rows[name]["peak_alloc_B_per_particle"]
         if abs(total - before - peak) > 0.1 + 1e-3 * peak:
             fail(f"--memory-breakdown: {name}: {total} B a particle less {before} before the run, expected "
                  f"the row's peak_alloc_B_per_particle {peak}")
-        labels = []
-        for entry in lines[k + 1:]:
-            if not entry.startswith("  "):
-                break
-            labels.append(entry.split()[-1])
+        labels = [entry.split()[-1] for entry in entries]
         if "particle_position_x" not in labels:
             fail(f"--memory-breakdown: {name}: no particle_position_x among the labels {labels[:5]}")
         checked += 1
-    steps = [n for n in rows if n.startswith("BM_Step/")]
-    if checked != len(steps):
-        fail(f"--memory-breakdown: {checked} breakdowns for {len(steps)} step rows")
-    else:
-        print(f"--memory-breakdown: {checked} step rows' peaks by label, each summing to its peak")
+    expect_every_step_row("--memory-breakdown", checked, rows, "peaks by label, each summing to its peak")
 
 
 def check_launches(stderr, rows):
     """--launch-breakdown: each step row's launches, reductions and View copies a step as counters
     (launches above zero, reductions among them), and by label on stderr, summing to them."""
-    lines = stderr.splitlines()
     checked = 0
-    for k, line in enumerate(lines):
-        m = LAUNCHES.match(line)
-        if not m:
-            continue
-        name = next((n for n in rows if n.startswith(m.group(1) + "/")), None)
-        if name is None:
-            fail(f"--launch-breakdown: {m.group(1)} names no step row that reported")
-            continue
+    for name, m, entries in step_row_breakdowns("--launch-breakdown", LAUNCHES, stderr, rows):
         row = rows[name]
         launches, reductions, copies, allocated = (row.get(c) for c in (
             "kernel_launches_per_step", "reductions_per_step", "view_copies_per_step", "allocations_per_step"))
@@ -186,22 +188,13 @@ def check_launches(stderr, rows):
                                  (m.group(5), allocated)):
             if abs(float(printed) - counter) > 0.006:
                 fail(f"--launch-breakdown: {name}: {printed} printed, the counter is {counter}")
-        by_label, labels = 0.0, 0
-        for entry in lines[k + 1:]:
-            if not entry.startswith("  "):
-                break
-            by_label += float(entry.split()[0])
-            labels += 1
+        by_label = sum(float(entry.split()[0]) for entry in entries)
         # (Each label's count is printed to 2 decimals: off by 0.005 at most.)
-        if labels == 0 or abs(by_label - launches - copies) > 0.005 * labels + 1e-9:
+        if not entries or abs(by_label - launches - copies) > 0.005 * len(entries) + 1e-9:
             fail(f"--launch-breakdown: {name}: the labels sum to {by_label}, expected the launches and copies, "
                  f"{launches + copies}")
         checked += 1
-    steps = [n for n in rows if n.startswith("BM_Step/")]
-    if checked != len(steps):
-        fail(f"--launch-breakdown: {checked} censuses for {len(steps)} step rows")
-    else:
-        print(f"--launch-breakdown: {checked} step rows' launches a step by label, each summing to its counters")
+    expect_every_step_row("--launch-breakdown", checked, rows, "launches a step by label, each summing to its counters")
 
 
 def check_rows_with_setting(benchmarks, work_dir, plain_rows):
