@@ -4,8 +4,9 @@
 //
 // Each BM_Kernel row times one phase of real steps (the solver's phase timers, which fence) and
 // reports it per call: time, particle-steps per second (Mpps) and effective bandwidth (GBps:
-// bytes from the traffic model below divided by the time). BM_Step rows report the whole step,
-// its share of the triad bandwidth, and memory: the peak of all Kokkos allocations (every View,
+// bytes from the traffic model below divided by the time). BM_Step rows report the whole step (its
+// wall time, with the phase timers as the case sets them: output/phase_timers), its share of the
+// triad bandwidth, and memory: the peak of all Kokkos allocations (every View,
 // ScatterView copy and temporary, seen through the Kokkos Tools allocation callbacks) per
 // particle and per node. The share twice: of BM_Triad's bandwidth (triad_fraction, the run's
 // first row), and of the triad's in passes right before and right after the row's steps
@@ -15,7 +16,8 @@
 //
 // With --launch-census, each step row runs its steps once more, untimed, counting what a step
 // launches (kernel_launches_per_step, of them reductions_per_step) and copies between Views
-// (view_copies_per_step), and the Kokkos allocations it makes (allocations_per_step): on a GPU each
+// (view_copies_per_step), the Kokkos allocations it makes (allocations_per_step) and the fences of
+// the phase timers (phase_fences_per_step; output/phase_timers = unfenced: none): on a GPU each
 // costs microseconds of latency whatever its size, which at small sizes bounds the step more than
 // its bytes do. The counts are the back-end's path (a CPU build takes the sorted P2G and its own
 // selections; a GPU build the atomic P2G and scans).
@@ -306,6 +308,7 @@ void BM_Triad(benchmark::State& state) {
 void BM_Kernel(benchmark::State& state, RunSpec spec, Phase phase) {
   Run& run = run_for(spec);
   Solver& solver = *run.solver;
+  solver.timers().set_timing(PhaseTiming::fenced);  // (one phase's own time, whatever the case says)
   double seconds = 0;
   long calls = 0, steps = 0;
   const long long particle_steps_before = solver.particle_steps();
@@ -368,16 +371,21 @@ struct StepRowExtras {
 void count_launches(benchmark::State& state, const Run& run, Solver& solver, long steps, bool by_label) {
   const LaunchCensus census(by_label);
   const long long allocations_before = allocations().allocation_count();
+  const long fences_before = solver.timers().fences();
   for (long k = 0; k < steps; ++k) solver.advance(solver.stable_time_step());
   const double allocations_per_step = double(allocations().allocation_count() - allocations_before) / steps;
+  const double phase_fences_per_step = double(solver.timers().fences() - fences_before) / steps;
   state.counters["kernel_launches_per_step"] = double(census.launches()) / steps;
   state.counters["reductions_per_step"] = double(census.reductions()) / steps;
   state.counters["view_copies_per_step"] = double(census.view_copies()) / steps;
   state.counters["allocations_per_step"] = allocations_per_step;
+  state.counters["phase_fences_per_step"] = phase_fences_per_step;
   if (!by_label) return;
-  std::fprintf(stderr, "launches of BM_Step/%s a step: %.2f (%.2f reductions), %.2f View copies, %.2f allocations\n",
+  std::fprintf(stderr,
+               "launches of BM_Step/%s a step: %.2f (%.2f reductions), %.2f View copies, %.2f allocations, "
+               "%.2f phase timers' fences\n",
                run.spec.key().c_str(), double(census.launches()) / steps, double(census.reductions()) / steps,
-               double(census.view_copies()) / steps, allocations_per_step);
+               double(census.view_copies()) / steps, allocations_per_step, phase_fences_per_step);
   for (const auto& [label, count] : census.by_label())
     std::fprintf(stderr, "  %8.2f  %s\n", double(count) / steps, label.c_str());
 }
@@ -386,26 +394,29 @@ void count_launches(benchmark::State& state, const Run& run, Solver& solver, lon
 void BM_Step(benchmark::State& state, RunSpec spec, StepRowExtras extras) {
   Run& run = run_for(spec);
   Solver& solver = *run.solver;
-  solver.timers() = PhaseTimers();
+  solver.timers() = PhaseTimers(run.config.output.phase_timers);
   long steps = 0;
   const long long particle_steps_before = solver.particle_steps();
   // The triad just before and just after the steps (outside the loop: not in the row's time).
   constexpr int triad_passes = 3;
   double triad_seconds = 0;
   for (int k = 0; k < triad_passes; ++k) triad_seconds += triad_pass_seconds();
+  // The steps' wall time, up to the end of their last kernel: with output/phase_timers = unfenced
+  // a GPU's last phases are still running when the host leaves the last step.
+  Kokkos::Timer step_timer;
   for (auto _ : state) {
     solver.advance(solver.stable_time_step());
     ++steps;
   }
+  Kokkos::fence();
+  const double steps_seconds = step_timer.seconds();
   for (int k = 0; k < triad_passes; ++k) triad_seconds += triad_pass_seconds();
   const double row_triad_GBps = triad_GBps(2 * triad_passes, triad_seconds);
   observe_steps(run, particle_steps_before, steps);
   const PhaseTimers& timers = solver.timers();
-  double step_seconds = 0, step_bytes = 0;
-  for (const Phase phase : timers.phases()) {
-    step_seconds += timers.entry(phase).seconds / steps;
-    step_bytes += phase_bytes(phase, run) * timers.entry(phase).calls / steps;
-  }
+  const double step_seconds = steps_seconds / std::max(1L, steps);
+  double step_bytes = 0;
+  for (const Phase phase : timers.phases()) step_bytes += phase_bytes(phase, run) * timers.entry(phase).calls / steps;
   const Solver::MemoryUse memory = solver.memory_use();
   state.counters["particles"] = run.particles;
   state.counters["cells"] = run.cells;

@@ -510,6 +510,7 @@ CaseConfig parse_document(const json& doc, const std::string& source, PointsFile
     r.optional_integer("snapshots", cfg.output.snapshots, 0, 100000);
     r.optional_integer("checkpoint_interval", cfg.output.checkpoint_interval, 0, 1L << 40);
     r.optional_integer("checkpoints_kept", cfg.output.checkpoints_kept, 0, 1 << 20);
+    r.optional_choice("phase_timers", cfg.output.phase_timers);
     r.finish();
   }
 
@@ -638,7 +639,8 @@ std::set<std::string> case_file_keys() {
     "particles": {"placement": "regular", "per_cell": [2, 2], "seed": 1},
     "initial_state": {"background": {"density": 1, "pressure": 1, "velocity": [0, 0]},
                       "regions": [{"x": [0, 1], "y": [0, 1], "density": 1, "pressure": 1, "velocity": [0, 0]}]},
-    "output": {"directory": "out", "snapshots": 1, "checkpoint_interval": 0, "checkpoints_kept": 2},
+    "output": {"directory": "out", "snapshots": 1, "checkpoint_interval": 0, "checkpoints_kept": 2,
+               "phase_timers": "fenced"},
     "decomposition": {"axis": "x", "balance_interval": 0},
     "numerics": {"reorder_interval": 0, "p2g": "automatic", "shape_function": "gimp", "fused_kernels": true,
                  "energy_consistent": true, "cell_averaged_strain": false, "pressure_relaxation": true,
@@ -660,7 +662,7 @@ json gas_state_json(const GasState& s) {
 
 bool may_change_on_restart(const std::string& key_path) {
   for (const char* key : {"/time/end", "/time/max_steps", "/output/snapshots", "/output/checkpoint_interval",
-                          "/output/checkpoints_kept", "/output/directory", "/description"})
+                          "/output/checkpoints_kept", "/output/directory", "/output/phase_timers", "/description"})
     if (key_path == key) return true;
   return false;
 }
@@ -720,7 +722,8 @@ std::string effective_case_json(const CaseConfig& c) {
   e["output"] = {{"directory", c.output.directory},
                  {"snapshots", c.output.snapshots},
                  {"checkpoint_interval", c.output.checkpoint_interval},
-                 {"checkpoints_kept", c.output.checkpoints_kept}};
+                 {"checkpoints_kept", c.output.checkpoints_kept},
+                 {"phase_timers", to_string(c.output.phase_timers)}};
   e["decomposition"] = {{"axis", c.decomposition.axis == 0 ? "x" : "y"},
                         {"balance_interval", c.decomposition.balance_interval}};
   e["numerics"] = {{"reorder_interval", c.numerics.reorder_interval},

@@ -131,12 +131,20 @@ struct InitialStateConfig {
   std::vector<Region> regions;
 };
 
+// How the phase table times a phase (PhaseTimers): `fenced` waits for the phase's kernels at its end,
+// so that each phase is charged its own work on a back-end that runs kernels asynchronously (a
+// GPU), at the price of a wait the next phase's launches cannot overlap, 18 a step; `unfenced` takes
+// the host's time in the phase, with nothing added to the step (on CPU back-ends, whose launches
+// return when their work is done, the two are the same).
+enum class PhaseTiming { fenced, unfenced };
+
 struct OutputConfig {
   std::string directory;  // default: output/<case name>
   int snapshots = 10;     // outputs equidistant in time, the final state included; 0: none
   // A checkpoint every this many steps and at the end; 0: none.
   long checkpoint_interval = 0;
   int checkpoints_kept = 2;  // the newest this many checkpoint files are kept; 0: all
+  PhaseTiming phase_timers = PhaseTiming::fenced;
 };
 
 // How a distributed run splits the grid: slabs along one axis, one per MPI rank.
@@ -244,7 +252,7 @@ std::set<std::string> case_file_keys();
 std::string effective_case_json(const CaseConfig& config);
 
 // The keys a restart may change: the end time, the output schedule and folder, the step limit,
-// the description. (Everything else of a checkpoint's case must stay as it was.)
+// how phases are timed, the description. (Everything else of a checkpoint's case must stay as it was.)
 bool may_change_on_restart(const std::string& key_path);
 
 // The first difference between two effective cases (effective_case_json texts) at a key that may
@@ -292,6 +300,10 @@ struct EnumNames<P2GStrategy> {
                                                     {"duplicated", P2GStrategy::duplicated},
                                                     {"atomic", P2GStrategy::atomic},
                                                     {"sorted", P2GStrategy::sorted}};
+};
+template <>
+struct EnumNames<PhaseTiming> {
+  static constexpr EnumName<PhaseTiming> table[] = {{"fenced", PhaseTiming::fenced}, {"unfenced", PhaseTiming::unfenced}};
 };
 template <>
 struct EnumNames<ShapeFunction> {

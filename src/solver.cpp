@@ -71,7 +71,8 @@ Solver::Solver(const CaseConfig& config, std::unique_ptr<SlabState> slab_state, 
       particles_(std::move(particles)),
       open_sides_(config, slab_->slab()),
       splitting_(config, slab_->slab()),
-      merging_(config, slab_->geometry()) {
+      merging_(config, slab_->geometry()),
+      timers_(config.output.phase_timers) {
   transfers_ = make_transfer_kernels(config_, slab_->geometry(), slab_->fields());
   settings_.fused_kernels = config_.numerics.fused_kernels;
   settings_.reorder_interval = config_.numerics.reorder_interval;

@@ -362,6 +362,27 @@ TEST_F(CommandLine, TheDuplicatedP2GIsRefusedOnGpusOnly) {
   }
 }
 
+// output/phase_timers = unfenced: the phase table says what its times are (the host's); the run's
+// results are the fenced run's.
+TEST_F(CommandLine, UnfencedPhaseTimersSayWhatTheTableTimes) {
+  write_case("case.json", sod_text_);
+  expect_rejected("run case.json --set output/phase_timers=later",
+                  "case.json: /output/phase_timers: expected one of fenced, unfenced; got \"later\"");
+  const std::string arguments = "run case.json --set domain/cells_x=20 --set output/snapshots=0 --overwrite --output out";
+  const CommandResult fenced = run_mpmflow(arguments, dir_);
+  ASSERT_EQ(fenced.exit_code, 0) << fenced.output;
+  EXPECT_EQ(fenced.output.find("unfenced"), std::string::npos) << fenced.output;
+  const auto final_line = [](const std::string& output) { return output.substr(output.find("final: mass")); };
+  const std::string fenced_final = final_line(fenced.output);
+  const CommandResult unfenced = run_mpmflow(arguments + " --set output/phase_timers=unfenced", dir_);
+  ASSERT_EQ(unfenced.exit_code, 0) << unfenced.output;
+  EXPECT_NE(unfenced.output.find("Time per phase\n  (output/phase_timers = unfenced: the host's time in each phase"),
+            std::string::npos)
+      << unfenced.output;
+  EXPECT_EQ(final_line(unfenced.output).substr(0, fenced_final.find('\n')),
+            fenced_final.substr(0, fenced_final.find('\n')));
+}
+
 // A geometry error is a case-file error: exit 2, the message, nothing written.
 TEST_F(CommandLine, BadGeometryIsRejectedBeforeAnythingIsWritten) {
   std::ofstream(dir_ / "wing.dat") << "WING\n0 0\n1 1\n1 0\n0 1\n";

@@ -127,6 +127,40 @@ TEST(Profiling, NoKernelOfAStepIsLaunchedOnceAParticleField) {
   }
 }
 
+// output/phase_timers: fenced, the timers wait for each phase's kernels (a fence a phase call);
+// unfenced, they add no wait to the step, and time and name the same phases. What the step computes
+// is the same either way.
+TEST(Profiling, UnfencedPhaseTimersAddNoWaitToTheStep) {
+  struct Timed {
+    PhaseTimers timers;
+    ParticleState particles;
+  };
+  auto run = [](const char* timing) {
+    const CaseConfig config =
+        load_case_file(std::string(MPMFLOW_SOURCE_DIR) + "/cases/cylinder_mach3.json",
+                       {"domain/cells_x=40", "domain/cells_y=20", std::string("output/phase_timers=") + timing});
+    const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+    Solver solver(config, slab, create_initial_particles(config, slab));
+    for (int k = 0; k < 5; ++k) solver.advance(solver.stable_time_step());
+    return Timed{solver.timers(), solver.particles()};
+  };
+  const Timed fenced = run("fenced"), unfenced = run("unfenced");
+  EXPECT_EQ(fenced.timers.timing(), PhaseTiming::fenced);
+  EXPECT_EQ(unfenced.timers.timing(), PhaseTiming::unfenced);
+  long calls = 0;
+  for (const Phase phase : fenced.timers.phases()) calls += fenced.timers.entry(phase).calls;
+  EXPECT_GT(calls, 5 * 10);
+  EXPECT_EQ(fenced.timers.fences(), calls);
+  EXPECT_EQ(unfenced.timers.fences(), 0);
+  ASSERT_EQ(unfenced.timers.phases(), fenced.timers.phases());
+  for (const Phase phase : fenced.timers.phases())
+    EXPECT_EQ(unfenced.timers.entry(phase).calls, fenced.timers.entry(phase).calls) << phase_name(phase);
+  ASSERT_EQ(unfenced.particles.count, fenced.particles.count);
+  const auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fenced.particles.position_x);
+  const auto x_unfenced = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), unfenced.particles.position_x);
+  for (index_t p = 0; p < fenced.particles.count; ++p) ASSERT_EQ(x_unfenced(p), x(p)) << "particle " << p;
+}
+
 TEST(Profiling, UnfusedKernelsAreRegionsOfTheirOwn) {
   const std::set<std::string> regions = regions_of_two_steps(false);
   EXPECT_TRUE(regions.count(phase_name(Phase::g2p_velocity_acceleration)));
