@@ -309,10 +309,10 @@ OpenBoundaries::OpenBoundaries(const CaseConfig& config, const GridSlab& slab)
     first_cell += side.cells;
   }
   entry_distance_.assign(static_cast<size_t>(first_cell), 0.0);
-  distance_before_ = Kokkos::View<double*, DeviceType>("entry_distance_before", first_cell);
-  distance_after_ = Kokkos::View<double*, DeviceType>("entry_distance_after", first_cell);
-  inward_speed_ = Kokkos::View<double*, DeviceType>("entry_inward_speed", first_cell);
+  entry_cells_ = Kokkos::View<double*, DeviceType>("entry_cells", 3 * static_cast<size_t>(first_cell));
+  entry_cells_host_ = Kokkos::create_mirror_view(entry_cells_);
   strip_volume_ = Kokkos::View<long long*, DeviceType>("far_field_strip_volume", first_cell);
+  strip_volume_host_ = Kokkos::create_mirror_view(strip_volume_);
 }
 
 void OpenBoundaries::restore(const std::vector<double>& entry_distance, const BoundaryFluxes& fluxes) {
@@ -367,9 +367,6 @@ void OpenBoundaries::recycle(ParticleState& pt, const SlabState& slab_state, con
 void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_t dt) {
   const GridSlab& slab = slab_state.slab();
   const ObstacleGrid& obstacles = slab_state.obstacles();
-  auto before = Kokkos::create_mirror_view(distance_before_);
-  auto after = Kokkos::create_mirror_view(distance_after_);
-  auto speed = Kokkos::create_mirror_view(inward_speed_);
   // Every far-field strip's volume in one pass; the particles that an earlier side lets in during
   // this loop are added before a later side reads its strips, as a pass of each side's own did.
   FarFieldStrips strips;
@@ -388,36 +385,46 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
   index_t measured = pt.count;  // particles [0, measured) are in strip_volume_
   for (const EntrySide& side : sides_) {
     const auto cells = std::make_pair(side.first_cell, side.first_cell + side.cells);
+    // The side's block of entry_cells_: its cells' distances before and after the step and inward
+    // speeds, one after the other, so that one copy takes them to the device.
+    const size_t n = static_cast<size_t>(side.cells);
+    const auto block = std::make_pair(3 * static_cast<size_t>(side.first_cell), 3 * static_cast<size_t>(side.first_cell) + 3 * n);
+    const auto part = [&](const auto& view, size_t k) {
+      return Kokkos::subview(view, std::make_pair(block.first + k * n, block.first + (k + 1) * n));
+    };
+    const auto before = part(entry_cells_host_, 0), after = part(entry_cells_host_, 1),
+               speed = part(entry_cells_host_, 2);
     // The gap each cell's strip next to a far-field side needs filled (in lengths along the normal).
-    std::vector<double> fill(static_cast<size_t>(side.cells), 0.0);
+    std::vector<double> fill(n, 0.0);
     if (side.far_field) {
-      const auto side_speed = Kokkos::subview(inward_speed_, cells);
+      const auto side_speed = part(entry_cells_, 2);
       far_field_inward_speed(side, slab_state, side_speed);
-      Kokkos::deep_copy(Kokkos::subview(speed, cells), side_speed);
-      slab_state.context().sum_in_place(speed.data() + side.first_cell, static_cast<int>(side.cells));
+      Kokkos::deep_copy(speed, side_speed);
+      slab_state.context().sum_in_place(speed.data(), static_cast<int>(side.cells));
       add_far_field_strip_volumes(strips, pt, measured, pt.count, slab, strip_volume_);
       measured = pt.count;
-      auto volume = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), Kokkos::subview(strip_volume_, cells));
+      const auto volume = Kokkos::subview(strip_volume_host_, cells);
+      Kokkos::deep_copy(volume, Kokkos::subview(strip_volume_, cells));
       slab_state.context().sum_in_place(volume.data(), static_cast<int>(side.cells));
       const bool along_x = side.side == bottom_side || side.side == top_side;
       const double depth_of_strip = along_x ? slab.geometry.spacing_y : slab.geometry.spacing_x;
-      for (index_t c = 0; c < side.cells; ++c) {
+      for (size_t c = 0; c < n; ++c) {
         // Where the gas does not leave, the free stream outside fills what the particles leave
         // empty of the strip (see the header).
         const double empty = 1.0 - double(volume(c)) * strip_volume_unit;
-        if (speed(side.first_cell + c) >= 0 && empty > 0) fill[static_cast<size_t>(c)] = empty * depth_of_strip;
+        if (speed(c) >= 0 && empty > 0) fill[c] = empty * depth_of_strip;
       }
     } else {
-      for (index_t c = side.first_cell; c < side.first_cell + side.cells; ++c) speed(c) = side.free_stream_inward;
+      for (size_t c = 0; c < n; ++c) speed(c) = side.free_stream_inward;
     }
     double largest_advance = 0;
-    for (index_t c = side.first_cell; c < side.first_cell + side.cells; ++c) {
+    for (size_t c = 0; c < n; ++c) {
       if (speed(c) < 0) speed(c) = 0;  // where the gas leaves, the lattice waits
-      double& distance = entry_distance_[c];
+      double& distance = entry_distance_[static_cast<size_t>(side.first_cell) + c];
       before(c) = distance;
       // The lattice moves in with the gas, or further where that does not fill the strip (the gas
       // that moved in during the step is part of the strip's emptiness measured before it enters).
-      distance += std::max(speed(c) * dt, fill[static_cast<size_t>(c - side.first_cell)]);
+      distance += std::max(speed(c) * dt, fill[c]);
       after(c) = distance;
       largest_advance = std::max(largest_advance, after(c) - before(c));
     }
@@ -428,15 +435,13 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
     if (num_candidates > static_cast<long long>(std::numeric_limits<index_t>::max()))
       throw std::runtime_error("open boundaries: the step of " + std::to_string(dt) +
                                " moves the free stream over too many particle rows at once");
-    Kokkos::deep_copy(Kokkos::subview(distance_before_, cells), Kokkos::subview(before, cells));
-    Kokkos::deep_copy(Kokkos::subview(distance_after_, cells), Kokkos::subview(after, cells));
-    Kokkos::deep_copy(Kokkos::subview(inward_speed_, cells), Kokkos::subview(speed, cells));
+    Kokkos::deep_copy(Kokkos::subview(entry_cells_, block), Kokkos::subview(entry_cells_host_, block));
 
     EntryCandidates candidates;
     candidates.side = side;
-    candidates.distance_before = Kokkos::subview(distance_before_, cells);
-    candidates.distance_after = Kokkos::subview(distance_after_, cells);
-    candidates.inward_speed = Kokkos::subview(inward_speed_, cells);
+    candidates.distance_before = part(entry_cells_, 0);
+    candidates.distance_after = part(entry_cells_, 1);
+    candidates.inward_speed = part(entry_cells_, 2);
     candidates.domain = DomainBox(slab);
     candidates.slab = slab;
     candidates.obstacles = obstacles.obstacles;

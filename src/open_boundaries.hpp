@@ -156,10 +156,13 @@ class OpenBoundaries {
   Recycle recycle_;  // its fields fixed for the run
   std::vector<EntrySide> sides_;
   std::vector<double> entry_distance_;
-  // Per entry cell, for one step's kernels (allocated once): the entry distance before and after
-  // the step and the inward speed.
-  Kokkos::View<double*, DeviceType> distance_before_, distance_after_, inward_speed_;
+  // Per entry cell, for one step's kernels (allocated once, with their host copies): the entry
+  // distance before and after the step and the inward speed, in a block of the three a side
+  // (enter: one copy a side to the device); the far-field strips' volumes.
+  Kokkos::View<double*, DeviceType> entry_cells_;
+  Kokkos::View<double*, DeviceType>::HostMirror entry_cells_host_;
   Kokkos::View<long long*, DeviceType> strip_volume_;  // per entry cell: its far-field strip's volume
+  Kokkos::View<long long*, DeviceType>::HostMirror strip_volume_host_;
   BoundaryFluxes fluxes_;
   IndexView leaving_;  // the list of the particles that left (select_indices), kept from step to step
   IndexView fillers_;  // the staying particles that fill their places (plan_hole_filling), kept likewise
