@@ -52,10 +52,16 @@ struct GroupOfCellBin {
 //    that depends on thread timing; sorting within bins by the unique key (bin, particle index)
 //    makes the result unique. The particles per bin are counted with a ScatterView (integer sums:
 //    exact in any order).
+// Either method runs on any back-end (the tests build both on CPUs and compare them); the default
+// is the one for the back-end's memory.
 class CellOrder {
  public:
   using KeyView = Kokkos::View<std::int64_t*, DeviceType>;
-  static constexpr bool counting_sort = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
+  enum class Method { counting_sort, bin_sort };
+  static constexpr Method default_method =
+      std::is_same<MemorySpace, Kokkos::HostSpace>::value ? Method::counting_sort : Method::bin_sort;
+
+  explicit CellOrder(Method method = default_method) : method_(method) {}
 
   // By cell.
   void build(const IndexView& particle_cell, index_t num_particles, index_t num_cells) {
@@ -89,13 +95,14 @@ class CellOrder {
     if (static_cast<index_t>(particle_.extent(0)) < num_particles) {
       const index_t capacity = num_particles + num_particles / 8;
       particle_ = IndexView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_particle"), capacity);
-      if (!counting_sort) keys_ = KeyView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_keys"), capacity);
+      if (method_ == Method::bin_sort)
+        keys_ = KeyView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_keys"), capacity);
     }
     if (static_cast<index_t>(bin_offset_.extent(0)) != num_bins + 1) {
       bin_offset_ = IndexView("cell_order_offset", num_bins + 1);
-      bin_count_ = IndexView("cell_order_count", counting_sort ? 0 : num_bins);
+      bin_count_ = IndexView("cell_order_count", method_ == Method::bin_sort ? num_bins : 0);
     }
-    if constexpr (counting_sort) build_by_counting(bin_of, num_particles, num_bins);
+    if (method_ == Method::counting_sort) build_by_counting(bin_of, num_particles, num_bins);
     else build_by_bin_sort(bin_of, num_particles, num_bins);
     num_particles_ = num_particles;
   }
@@ -209,6 +216,7 @@ class CellOrder {
   }
 
  private:
+  Method method_;
   KeyView keys_;  // (BinSort)
   IndexView particle_, bin_offset_, bin_count_;
   // (Counting sort) per bin and chunk: its particles of the bin, then the next slot they take.

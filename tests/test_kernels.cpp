@@ -718,23 +718,47 @@ TYPED_TEST(TransferKernels, FusedG2PThenP2GEqualsTheTwoKernels) {
   for (int i = 0; i < g.num_nodes(); ++i) EXPECT_NEAR(fn(i, 0), sn(i, 0), 1e-13 * largest) << "node " << i;
 }
 
+// The grouping is unique (the bins in order, each particle once, in index order within its bin),
+// so both methods, the CPUs' counting sort and the GPUs' BinSort, built here on whatever back-end
+// the tests run on, give the same order: by cell, and by group of cells (bin_of_cell, the tiles'
+// map, where consecutive particles share a bin in runs). Built twice, the second time with more
+// particles than the first's storage holds, and once with none.
 TEST(CellOrder, GroupsParticlesByCellInIndexOrder) {
   const GridGeometry g = test_grid();
-  const DeviceParticles d = to_device(g, random_particles(g, 3000, 6));
-  CellOrder order;
-  order.build(d.where.cell, d.count, g.num_cells());
-  auto offset = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.bin_offset());
-  auto particle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.particle());
-  auto cell = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.cell);
-  ASSERT_EQ(offset(g.num_cells()), d.count);
-  std::vector<int> seen(d.count, 0);
-  for (index_t c = 0; c < g.num_cells(); ++c)
-    for (index_t s = offset(c); s < offset(c + 1); ++s) {
-      EXPECT_EQ(cell(particle(s)), c);
-      if (s > offset(c)) EXPECT_LT(particle(s - 1), particle(s));  // index order within the cell
-      ++seen[particle(s)];
+  const index_t num_groups = 5;
+  IndexView group_of_cell("test_group_of_cell", g.num_cells());
+  {
+    auto host = Kokkos::create_mirror_view(group_of_cell);
+    for (index_t c = 0; c < g.num_cells(); ++c) host(c) = (c / 7) % num_groups;  // runs of 7 cells
+    Kokkos::deep_copy(group_of_cell, host);
+  }
+  for (const CellOrder::Method method : {CellOrder::Method::counting_sort, CellOrder::Method::bin_sort})
+    for (const bool by_group : {false, true}) {
+      SCOPED_TRACE(std::string(method == CellOrder::Method::counting_sort ? "counting sort" : "bin sort") +
+                   (by_group ? ", by group of cells" : ", by cell"));
+      CellOrder order(method);
+      for (const index_t count : {1000, 3000, 0}) {
+        SCOPED_TRACE(std::to_string(count) + " particles");
+        const DeviceParticles d = to_device(g, random_particles(g, count, 6));
+        const index_t num_bins = by_group ? num_groups : g.num_cells();
+        if (by_group) order.build(d.where.cell, d.count, group_of_cell, num_groups);
+        else order.build(d.where.cell, d.count, g.num_cells());
+        auto offset = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.bin_offset());
+        auto particle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), order.particle());
+        auto cell = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.cell);
+        auto group = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), group_of_cell);
+        ASSERT_EQ(offset(0), 0);
+        ASSERT_EQ(offset(num_bins), d.count);
+        std::vector<int> seen(d.count, 0);
+        for (index_t b = 0; b < num_bins; ++b)
+          for (index_t s = offset(b); s < offset(b + 1); ++s) {
+            ASSERT_EQ(by_group ? group(cell(particle(s))) : cell(particle(s)), b) << "slot " << s;
+            if (s > offset(b)) ASSERT_LT(particle(s - 1), particle(s));  // index order within the bin
+            ++seen[particle(s)];
+          }
+        for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
+      }
     }
-  for (index_t p = 0; p < d.count; ++p) EXPECT_EQ(seen[p], 1) << "particle " << p;
 }
 
 // A grid's size for a test's trace: "<cells_x> x <cells_y> cells".
@@ -1261,9 +1285,19 @@ void expect_selection(index_t first, index_t last, const Predicate& keep, IndexV
   for (index_t p = first; p < last; ++p)
     if (keep(p)) expected.push_back(p);
   ASSERT_EQ(static_cast<index_t>(expected.size()), expected_count);
-  // Into the kept buffer, and (the other form) into a View of its own.
-  for (const IndexView& selected :
-       {select_indices("test_select", first, last, keep, buffer), select_indices("test_select", first, last, keep)}) {
+  // Into the kept buffer, and (the other form) into a View of its own; by the back-end's method, and
+  // by the GPUs' scans on any back-end (and by the CPUs' parts where the particles are in host memory,
+  // which the threads' ranges write through host pointers), each buffer from empty.
+  std::vector<IndexView> selections = {select_indices("test_select", first, last, keep, buffer),
+                                       select_indices("test_select", first, last, keep),
+                                       select_indices_by_scan("test_select", first, last, keep)};
+  IndexView scan_buffer, parts_buffer;
+  selections.push_back(select_indices_by_scan("test_select", first, last, keep, scan_buffer));
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
+    selections.push_back(select_indices_in_parts("test_select", first, last, keep));
+    selections.push_back(select_indices_in_parts("test_select", first, last, keep, parts_buffer));
+  }
+  for (const IndexView& selected : selections) {
     auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), selected);
     ASSERT_EQ(static_cast<index_t>(host.extent(0)), expected_count);
     for (index_t k = 0; k < expected_count; ++k) ASSERT_EQ(host(k), expected[k]) << "entry " << k;
