@@ -16,8 +16,9 @@
 //
 // With --launch-census, each step row runs its steps once more, untimed, counting what a step
 // launches (kernel_launches_per_step, of them reductions_per_step) and copies between Views
-// (view_copies_per_step), the Kokkos allocations it makes (allocations_per_step) and the fences of
-// the phase timers (phase_fences_per_step; output/phase_timers = unfenced: none): on a GPU each
+// (view_copies_per_step), the Kokkos allocations it makes (allocations_per_step), the fences of
+// the phase timers (phase_fences_per_step; output/phase_timers = unfenced: none) and the fills that
+// fence before and after (fenced_fills_per_step, launch_census.hpp): on a GPU each
 // costs microseconds of latency whatever its size, which at small sizes bounds the step more than
 // its bytes do. The counts are the back-end's path (a CPU build takes the sorted P2G and its own
 // selections; a GPU build the atomic P2G and scans).
@@ -380,12 +381,14 @@ void count_launches(benchmark::State& state, const Run& run, Solver& solver, lon
   state.counters["view_copies_per_step"] = double(census.view_copies()) / steps;
   state.counters["allocations_per_step"] = allocations_per_step;
   state.counters["phase_fences_per_step"] = phase_fences_per_step;
+  state.counters["fenced_fills_per_step"] = double(census.fenced_fills()) / steps;
   if (!by_label) return;
   std::fprintf(stderr,
                "launches of BM_Step/%s a step: %.2f (%.2f reductions), %.2f View copies, %.2f allocations, "
-               "%.2f phase timers' fences\n",
+               "%.2f phase timers' fences, %.2f fenced fills\n",
                run.spec.key().c_str(), double(census.launches()) / steps, double(census.reductions()) / steps,
-               double(census.view_copies()) / steps, allocations_per_step, phase_fences_per_step);
+               double(census.view_copies()) / steps, allocations_per_step, phase_fences_per_step,
+               double(census.fenced_fills()) / steps);
   for (const auto& [label, count] : census.by_label())
     std::fprintf(stderr, "  %8.2f  %s\n", double(count) / steps, label.c_str());
 }

@@ -115,7 +115,7 @@ class CellOrder {
       chunk_start_ = Kokkos::View<index_t**, Kokkos::LayoutRight, DeviceType>("cell_order_chunk_start", num_bins, chunks);
     const auto start = chunk_start_;
     const IndexView particle = particle_, offset = bin_offset_;
-    Kokkos::deep_copy(start, 0);
+    fill_in_order(start, 0);
     Kokkos::parallel_for(
         "cell_order_count", Kokkos::RangePolicy<ExecutionSpace>(0, chunks), KOKKOS_LAMBDA(const index_t t) {
           // (The bounds in locals: in the loop's condition, the division ran for every particle,
@@ -183,7 +183,7 @@ class CellOrder {
     const KeyView keys = keys_;
     const IndexView particle = particle_, offset = bin_offset_, count = bin_count_;
     const std::int64_t n = num_particles > 0 ? num_particles : 1;
-    Kokkos::deep_copy(count, 0);
+    fill_in_order(count, 0);
     {
       Kokkos::Experimental::ScatterView<index_t*, Kokkos::LayoutLeft, DeviceType> scatter(count);
       Kokkos::parallel_for(

@@ -42,6 +42,15 @@ using ParticleIdView = Kokkos::View<particle_id_t*, Kokkos::LayoutLeft, DeviceTy
 // Several node fields side by side: (node, component), each component column contiguous.
 using NodeFieldsView = Kokkos::View<real_t**, Kokkos::LayoutLeft, DeviceType>;
 
+// `view` filled with `value` in the execution space's order, as a kernel launched there: Kokkos'
+// deep_copy without an execution space fences before and after a fill (on a GPU two waits for the
+// device, each leaving it idle while the host launches what comes next), this one does not. What the
+// host reads after it comes through a deep_copy or a reduction, which wait for it.
+template <class ViewType>
+void fill_in_order(const ViewType& view, const typename ViewType::const_value_type& value) {
+  Kokkos::deep_copy(ExecutionSpace(), view, value);
+}
+
 // A list of indices made on the host (nodes, particles), as a View of the execution space.
 inline IndexView to_device_indices(const char* label, const std::vector<index_t>& host) {
   IndexView device(std::string(label), host.size());

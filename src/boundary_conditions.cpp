@@ -372,7 +372,7 @@ double apply_particle_rules(const ParticleBoundaries& boundaries, const Particle
   }
   ObstacleForces::ImpulseView impulse = forces->particle_impulse;
   auto scatter = forces->particle_impulse_scatter;
-  Kokkos::deep_copy(impulse, 0.0);
+  fill_in_order(impulse, 0.0);
   scatter.reset();
   const double stopped = sum_over_particles_rules_reach(
       "particle_move", rules, pt, KOKKOS_LAMBDA(const index_t p, double& sum) {

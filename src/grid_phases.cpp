@@ -14,7 +14,7 @@ KOKKOS_INLINE_FUNCTION real_t per_unit_node_mass(real_t node_mass, real_t mass_t
 }  // namespace
 
 void reset_grid(const GridFields& fields) {
-  Kokkos::deep_copy(fields.state, real_t(0));
+  fill_in_order(fields.state, real_t(0));
 }
 
 real_t max_node_signal_speed(const GridFields& fields, real_t gamma, real_t mass_threshold) {

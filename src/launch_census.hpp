@@ -49,6 +49,10 @@ class LaunchCensus {
   // host waits for; on CPUs mostly a View onto itself (a mirror that is the View), counted all the
   // same, so that the count is the program's.
   long long view_copies() const { return view_copies_; }
+  // Fills of a View from a value through deep_copy without an execution space (Kokkos names their
+  // source "Scalar"; "(none)" where an execution space is given): Kokkos fences before and after
+  // each, on a GPU two waits for the device (fill_in_order, kernels/types.hpp, fills without them).
+  long long fenced_fills() const { return fenced_fills_; }
   // The counts by label ("copy DST <- SRC" for a copy), where by_label was set.
   const std::map<std::string, long long>& by_label() const { return by_label_counts_; }
 
@@ -75,8 +79,13 @@ class LaunchCensus {
   static void on_deep_copy(Kokkos_Profiling_SpaceHandle, const char* destination, const void*,
                            Kokkos_Profiling_SpaceHandle, const char* source, const void*, std::uint64_t) {
     LaunchCensus& c = *installed();
-    // (Kokkos names the source of a fill "Scalar".)
-    if (std::strcmp(source, "Scalar") == 0) return;
+    // (Kokkos names the source of a fill "Scalar", or "(none)" where it was given an execution space.)
+    if (std::strcmp(source, "Scalar") == 0) {
+      ++c.fenced_fills_;
+      if (c.by_label_) c.count_label(std::string("fenced fill ") + destination);
+      return;
+    }
+    if (std::strcmp(source, "(none)") == 0) return;
     ++c.view_copies_;
     if (c.by_label_) c.count_label(std::string("copy ") + destination + " <- " + source);
   }
@@ -84,7 +93,7 @@ class LaunchCensus {
   const bool by_label_;
   // (Atomic: a View's initialisation may come from any thread that allocates, as the allocation
   // tracker found.)
-  std::atomic<long long> launches_{0}, reductions_{0}, view_copies_{0};
+  std::atomic<long long> launches_{0}, reductions_{0}, view_copies_{0}, fenced_fills_{0};
   std::map<std::string, long long> by_label_counts_;
   std::mutex mutex_;
 };

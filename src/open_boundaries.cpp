@@ -118,7 +118,7 @@ struct AppendEntering {
 // the cells of other ranks.
 void far_field_inward_speed(const EntrySide& side, const SlabState& slab_state,
                             const Kokkos::View<double*, DeviceType>& speed) {
-  Kokkos::deep_copy(speed, 0.0);
+  fill_in_order(speed, 0.0);
   const GridSlab& slab = slab_state.slab();
   const GridGeometry geo = slab.geometry;
   const NodeFieldsView velocity = slab_state.fields().per_unit_mass;
@@ -379,7 +379,7 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
     ++strips.count;
   }
   if (strips.count > 0) {  // (no far-field side, as in the cylinder: nothing to zero every step)
-    Kokkos::deep_copy(strip_volume_, 0LL);
+    fill_in_order(strip_volume_, 0LL);
     add_far_field_strip_volumes(strips, pt, 0, pt.count, slab, strip_volume_);
   }
   index_t measured = pt.count;  // particles [0, measured) are in strip_volume_

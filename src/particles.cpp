@@ -165,8 +165,8 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
   fill_from_initial_state(particles.specific_energy, xs, ys, initial, [gamma](const GasState& s) {
     return perfect_gas_specific_energy(gamma, s.density, s.pressure);
   });
-  Kokkos::deep_copy(particles.domain_stretch_x, real_t(1));
-  Kokkos::deep_copy(particles.domain_stretch_y, real_t(1));
+  fill_in_order(particles.domain_stretch_x, real_t(1));
+  fill_in_order(particles.domain_stretch_y, real_t(1));
   update_cell_map(slab.geometry, particles);
   return particles;
 }

@@ -545,14 +545,14 @@ class Transfers final : public TransferKernels {
   void p2g_mass_momentum_force(const ParticleState& pt) override {
     accumulation_.prepare(pt, geometry_);
     if (cell_averaged_strain_) {  // each cell's volume and (P + Q) x volume, for its mean stress
-      Kokkos::deep_copy(cell_sums_, real_t(0));
+      fill_in_order(cell_sums_, real_t(0));
       p2g_begin(accumulation_.cells(), cell_sums_);
       p2c("p2c_volume_stress", pt.cell, accumulation_.traversal(pt), accumulation_.cells(), cell_volume,
           VolumeAndStress{pt.mass, pt.density, pt.specific_energy, pt.artificial_viscosity, gamma_});
       p2g_end(accumulation_.cells(), cell_sums_);
     }
     p2g_begin(accumulation_.state(), fields_.state);
-    Kokkos::deep_copy(in_doubt_count_, 0);
+    fill_in_order(in_doubt_count_, 0);
     in_doubt_.reset_except(in_doubt_count_);
     // Fused: the paper's P2G(M), P2G(M V) and P2GD((P + Q) M / rho) in one pass over the particles.
     const MassMomentumAndPressureVolume mass_and_momentum{
@@ -602,7 +602,7 @@ class Transfers final : public TransferKernels {
     if (cell_averaged_strain_) {
       // The divergence x volume of each cell (its volume and mean stress are the force's, step 3:
       // the particles have not moved since) ...
-      Kokkos::deep_copy(Kokkos::subview(cell_sums_, Kokkos::ALL, int(cell_divergence_volume)), real_t(0));
+      fill_in_order(Kokkos::subview(cell_sums_, Kokkos::ALL, int(cell_divergence_volume)), real_t(0));
       using Access = std::decay_t<decltype(accumulation_.cells())>;
       p2g_begin(accumulation_.cells(), cell_sums_);
       g2p_and_g2pd("g2pd_cell_divergence", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
@@ -628,7 +628,7 @@ class Transfers final : public TransferKernels {
   }
 
   void p2g_output_projection(const ParticleState& pt, const NodeFieldsView& target) override {
-    Kokkos::deep_copy(target, real_t(0));
+    fill_in_order(target, real_t(0));
     accumulation_.prepare(pt, geometry_);
     auto access = accumulation_.into(target);
     p2g_begin(access, target);
@@ -649,8 +649,7 @@ class Transfers final : public TransferKernels {
   void relax_pressures_and_locate(const ParticleState& pt, const ThermodynamicConstants& k, real_t dt,
                                   const ParticleLocator& locate) override {
     const NodeFieldsView sums = fields_.state;
-    Kokkos::deep_copy(Kokkos::subview(sums, Kokkos::ALL, std::make_pair(0, int(num_relaxation_sum_columns))),
-                      real_t(0));
+    fill_in_order(Kokkos::subview(sums, Kokkos::ALL, std::make_pair(0, int(num_relaxation_sum_columns))), real_t(0));
     p2g_begin(accumulation_.state(), sums);
     p2c("p2c_relaxation_sums", pt.cell, accumulation_.traversal(pt), accumulation_.state(), relaxation_volume,
         RelaxationSums{pt.mass, pt.density, pt.specific_energy, k.gamma});

@@ -77,10 +77,10 @@ SETTING = "numerics/pressure_relaxation=false"
 SET_ROWS = ["--cells=2000", "--matrix-only", "--shapes=linear", "--steps=3", "--benchmark_filter=/2000/3/1/",
             "--set", SETTING, "--memory-breakdown", "--launch-breakdown"]
 # "peak allocations of BM_Step/KEY: TOTAL B a particle (live before the run: BEFORE)", then a line a label.
-# "launches of BM_Step/KEY a step: L (R reductions), C View copies, A allocations, F phase timers' fences",
-# then a line a label.
+# "launches of BM_Step/KEY a step: L (R reductions), C View copies, A allocations, F phase timers' fences,
+# G fenced fills", then a line a label.
 LAUNCHES = re.compile(r"^launches of (BM_Step/\S+) a step: ([0-9.]+) \(([0-9.]+) reductions\), ([0-9.]+) View copies, "
-                      r"([0-9.]+) allocations, ([0-9.]+) phase timers' fences$")
+                      r"([0-9.]+) allocations, ([0-9.]+) phase timers' fences, ([0-9.]+) fenced fills$")
 BREAKDOWN = re.compile(r"^peak allocations of (BM_Step/\S+): ([0-9.]+) B a particle \(live before the run: ([0-9.]+)\)$")
 
 
@@ -176,27 +176,29 @@ def check_launches(stderr, rows):
     checked = 0
     for name, m, entries in step_row_breakdowns("--launch-breakdown", LAUNCHES, stderr, rows):
         row = rows[name]
-        launches, reductions, copies, allocated, fences = (row.get(c) for c in (
+        launches, reductions, copies, allocated, fences, fills = (row.get(c) for c in (
             "kernel_launches_per_step", "reductions_per_step", "view_copies_per_step", "allocations_per_step",
-            "phase_fences_per_step"))
+            "phase_fences_per_step", "fenced_fills_per_step"))
         # (The rows' case leaves output/phase_timers fenced: a fence a phase call, a dozen phases a step.)
         if not (isinstance(launches, (int, float)) and launches > 0 and isinstance(reductions, (int, float))
                 and 0 <= reductions <= launches and isinstance(copies, (int, float)) and copies >= 0
                 and isinstance(allocated, (int, float)) and allocated >= 0
-                and isinstance(fences, (int, float)) and fences >= 10):
+                and isinstance(fences, (int, float)) and fences >= 10 and isinstance(fills, (int, float))
+                and fills >= 0):
             fail(f"--launch-breakdown: {name}: launches {launches!r}, reductions {reductions!r}, copies {copies!r}, "
-                 f"allocations {allocated!r}, phase timers' fences {fences!r}: expected launches above zero, "
-                 f"reductions among them, copies and allocations not below zero, fences 10 or more")
+                 f"allocations {allocated!r}, phase timers' fences {fences!r}, fenced fills {fills!r}: expected "
+                 f"launches above zero, reductions among them, copies, allocations and fills not below zero, "
+                 f"fences 10 or more")
             continue
         for printed, counter in ((m.group(2), launches), (m.group(3), reductions), (m.group(4), copies),
-                                 (m.group(5), allocated), (m.group(6), fences)):
+                                 (m.group(5), allocated), (m.group(6), fences), (m.group(7), fills)):
             if abs(float(printed) - counter) > 0.006:
                 fail(f"--launch-breakdown: {name}: {printed} printed, the counter is {counter}")
         by_label = sum(float(entry.split()[0]) for entry in entries)
         # (Each label's count is printed to 2 decimals: off by 0.005 at most.)
-        if not entries or abs(by_label - launches - copies) > 0.005 * len(entries) + 1e-9:
-            fail(f"--launch-breakdown: {name}: the labels sum to {by_label}, expected the launches and copies, "
-                 f"{launches + copies}")
+        if not entries or abs(by_label - launches - copies - fills) > 0.005 * len(entries) + 1e-9:
+            fail(f"--launch-breakdown: {name}: the labels sum to {by_label}, expected the launches, copies and "
+                 f"fenced fills, {launches + copies + fills}")
         checked += 1
     expect_every_step_row("--launch-breakdown", checked, rows, "launches a step by label, each summing to its counters")
 

@@ -88,15 +88,43 @@ TEST(Profiling, TheLaunchCensusCountsLaunchesReductionsAndViewCopies) {
   fill_with_indices(a);
   EXPECT_EQ(sum_of(a), 4950.0);
   Kokkos::deep_copy(b, a);
-  Kokkos::deep_copy(b, real_t(0));  // a fill: a launch (or a memset), not a copy
+  Kokkos::deep_copy(b, real_t(0));  // a fill that fences: a launch (or a memset), not a copy
+  fill_in_order(b, real_t(1));      // a fill in the execution space's order: neither
   EXPECT_EQ(census.by_label().at("census_fill"), 2);
   EXPECT_EQ(census.by_label().at("census_sum"), 1);
   EXPECT_EQ(census.by_label().at("copy census_b <- census_a"), 1);
+  EXPECT_EQ(census.by_label().at("fenced fill census_b"), 1);
   EXPECT_EQ(census.reductions(), 1);
   EXPECT_EQ(census.view_copies(), 1);
-  // The three launches above, and at most the fill's own.
+  EXPECT_EQ(census.fenced_fills(), 1);
+  // The three launches above, and at most the fills' own.
   EXPECT_GE(census.launches(), 3);
-  EXPECT_LE(census.launches(), 4);
+  EXPECT_LE(census.launches(), 5);
+}
+
+// No step fills a View through a deep_copy that fences (on a GPU each is two waits for the device;
+// fill_in_order fills in the execution space's order instead): the cylinder (an obstacle, open
+// sides, splitting and merging), with the cell-averaged strain (its cell sums), and the aerofoil
+// (far-field sides, their strips).
+TEST(Profiling, NoStepFillsAViewWithFences) {
+  const std::string cases = std::string(MPMFLOW_SOURCE_DIR) + "/cases/";
+  const std::vector<std::pair<std::string, std::vector<std::string>>> runs = {
+      {"cylinder_mach3.json", {"domain/cells_x=40", "domain/cells_y=20"}},
+      {"cylinder_mach3.json", {"domain/cells_x=40", "domain/cells_y=20", "numerics/cell_averaged_strain=true"}},
+      {"aerofoil_transonic.json", {"domain/cells_x=50", "domain/cells_y=34"}}};
+  for (const auto& [file, settings] : runs) {
+    SCOPED_TRACE(file + (settings.size() > 2 ? " " + settings.back() : ""));
+    const CaseConfig config = load_case_file(cases + file, settings);
+    const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+    Solver solver(config, slab, create_initial_particles(config, slab));
+    for (int k = 0; k < 3; ++k) solver.advance(solver.stable_time_step());
+    const LaunchCensus census(/*by_label=*/true);
+    for (int k = 0; k < 5; ++k) solver.advance(solver.stable_time_step());
+    EXPECT_GT(census.launches(), 5 * 20);  // (the census saw the steps)
+    EXPECT_EQ(census.fenced_fills(), 0);
+    for (const auto& [label, count] : census.by_label())
+      EXPECT_NE(label.rfind("fenced fill ", 0), 0u) << label << ": " << count << " in 5 steps";
+  }
 }
 
 // No kernel of a step is launched once a particle field: particles move whole (splitting's halves,
@@ -122,7 +150,8 @@ TEST(Profiling, NoKernelOfAStepIsLaunchedOnceAParticleField) {
   for (const char* covered : {"split_copy", "particle_fill_holes", "open_side_totals"})
     EXPECT_TRUE(launches.count(covered)) << covered << " not launched: the test does not cover it";
   for (const auto& [label, count] : launches) {
-    if (label.rfind("Kokkos::", 0) == 0 || label.rfind("copy ", 0) == 0) continue;
+    if (label.rfind("Kokkos::", 0) == 0 || label.rfind("copy ", 0) == 0 || label.rfind("fenced fill ", 0) == 0)
+      continue;
     EXPECT_LT(count, steps * fields) << label << ": " << count << " launches in " << steps << " steps";
   }
 }
