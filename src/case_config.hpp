@@ -303,7 +303,8 @@ struct EnumNames<P2GStrategy> {
 };
 template <>
 struct EnumNames<PhaseTiming> {
-  static constexpr EnumName<PhaseTiming> table[] = {{"fenced", PhaseTiming::fenced}, {"unfenced", PhaseTiming::unfenced}};
+  static constexpr EnumName<PhaseTiming> table[] = {{"fenced", PhaseTiming::fenced},
+                                                    {"unfenced", PhaseTiming::unfenced}};
 };
 template <>
 struct EnumNames<ShapeFunction> {

@@ -387,8 +387,8 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
     const auto cells = std::make_pair(side.first_cell, side.first_cell + side.cells);
     // The side's block of entry_cells_: its cells' distances before and after the step and inward
     // speeds, one after the other, so that one copy takes them to the device.
-    const size_t n = static_cast<size_t>(side.cells);
-    const auto block = std::make_pair(3 * static_cast<size_t>(side.first_cell), 3 * static_cast<size_t>(side.first_cell) + 3 * n);
+    const size_t n = static_cast<size_t>(side.cells), block_begin = 3 * static_cast<size_t>(side.first_cell);
+    const auto block = std::make_pair(block_begin, block_begin + 3 * n);
     const auto part = [&](const auto& view, size_t k) {
       return Kokkos::subview(view, std::make_pair(block.first + k * n, block.first + (k + 1) * n));
     };

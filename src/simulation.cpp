@@ -64,7 +64,8 @@ void print_timer_table(std::ostream& log, const PhaseTimers& timers, long steps,
   if (timers.timing() == PhaseTiming::unfenced)
     log << "  (output/phase_timers = unfenced: the host's time in each phase; on a GPU a phase's kernels may\n"
            "  run on into the next phases and be charged to the first that waits for them)\n";
-  log << "  " << std::left << std::setw(28) << "phase" << std::right << std::setw(11) << (ranks ? "mean [s]" : "total [s]");
+  log << "  " << std::left << std::setw(28) << "phase" << std::right << std::setw(11)
+      << (ranks ? "mean [s]" : "total [s]");
   if (ranks) log << std::setw(10) << "min [s]" << std::setw(10) << "max [s]";
   log << std::setw(8) << "%" << std::setw(10) << "calls" << std::setw(14) << "per step [ms]" << "\n";
   for (const Phase phase : timers.phases()) {
