@@ -4,7 +4,9 @@ a small size and reports, for each, the counters the README's Benchmarks section
 consistent with each other; the same rows with a case-file setting of the user's (--set), which
 the report's context names and which leaves out the row of a phase it turns off, each step row's
 allocations at its peak by label (--memory-breakdown) summing to that peak, and its kernel
-launches a step by label (--launch-breakdown) summing to its launch counters; and its own options, given wrong, get an error naming the option and what it expects. It times nothing: the
+launches a step by label (--launch-breakdown) summing to its launch counters; the step rows with
+the phase timers unfenced (--set output/phase_timers=unfenced) fencing nothing; and its own options,
+given wrong, get an error naming the option and what it expects. It times nothing: the
 figures' values are not checked, only that each row ran and that its counters agree.
 
 Usage: benchmark_counters.py MPMFLOW_BENCHMARKS WORK_DIR
@@ -230,6 +232,30 @@ def check_rows_with_setting(benchmarks, work_dir, plain_rows):
         fail(f"--set {SETTING}: no particle_move row (which then gives the particles their cells)")
 
 
+def check_unfenced_step_rows(benchmarks, work_dir):
+    """--set output/phase_timers=unfenced reaches the step rows: their phase timers fence nothing (the
+    census's phase_fences_per_step, which the rows above, fenced, hold at 10 or more)."""
+    out = os.path.join(work_dir, "unfenced_rows.json")
+    run = subprocess.run([benchmarks, "--cells=2000", "--matrix-only", "--shapes=linear", "--steps=3",
+                          "--benchmark_filter=BM_Step/2000/3/1/", "--set", "output/phase_timers=unfenced",
+                          "--launch-census", f"--benchmark_out={out}", "--benchmark_out_format=json"],
+                         capture_output=True, text=True)
+    if run.returncode != 0:
+        fail(f"--set output/phase_timers=unfenced: exit {run.returncode}\n{run.stderr}")
+        return
+    with open(out) as f:
+        rows = json.load(f)["benchmarks"]
+    if not rows:
+        fail("--set output/phase_timers=unfenced: no step row reported")
+    for row in rows:
+        check_step(row)
+        if row.get("phase_fences_per_step") != 0:
+            fail(f"{row['name']}: phase_fences_per_step {row.get('phase_fences_per_step')!r} with "
+                 f"output/phase_timers = unfenced, expected 0")
+        else:
+            print(f"{row['name']}: no phase timers' fence with output/phase_timers = unfenced")
+
+
 def check_option_errors(benchmarks):
     for option, named in [("--cells=abc", ["--cells", '"abc"', "expected"]),
                           ("--shapes=cubic", ["--shapes", '"cubic"', "expected", "gimp", "linear"]),
@@ -257,6 +283,7 @@ def main():
     os.makedirs(work_dir, exist_ok=True)
     plain_rows = check_rows(benchmarks, work_dir, SMALL_ROWS, "rows", "none")
     check_rows_with_setting(benchmarks, work_dir, plain_rows)
+    check_unfenced_step_rows(benchmarks, work_dir)
     check_option_errors(benchmarks)
     return 1 if failures else 0
 
