@@ -68,18 +68,25 @@ index_t ParticleMerging::merge(ParticleState& particles, const ParticleBoundarie
   if (num_candidates < 2) return 0;
 
   // The pairs, on the host: the candidates in (cell, id) order, consecutive ones of a cell paired.
-  // There are few candidates (tiny particles only), so the copies are small.
-  IndexView candidate_cell("merge_candidate_cell", num_candidates);
-  ParticleIdView candidate_id("merge_candidate_id", num_candidates);
+  // There are few candidates (tiny particles only): their cells, ids and indices go to the host in
+  // one copy, the pairs and the merged-away particles back in one, through buffers kept from step
+  // to step (merging runs every step, and on a GPU an allocation costs more than these kernels).
+  const size_t n = static_cast<size_t>(num_candidates);
+  candidate_keys_.hold(3 * n, "merge_candidate_keys");
+  const ParticleIdView keys = candidate_keys_.part(3 * n);  // (cell, id, index) a candidate
   Kokkos::parallel_for(
       "merge_candidate_keys", Kokkos::RangePolicy<ExecutionSpace>(0, num_candidates), KOKKOS_LAMBDA(const index_t k) {
-        candidate_cell(k) = pt.cell(candidates(k));
-        candidate_id(k) = pt.id(candidates(k));
+        const index_t p = candidates(k);
+        keys(3 * k) = pt.cell(p);
+        keys(3 * k + 1) = pt.id(p);
+        keys(3 * k + 2) = p;
       });
-  const auto cell = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), candidate_cell);
-  const auto id = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), candidate_id);
-  const auto index = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), candidates);
-  std::vector<index_t> order(static_cast<size_t>(num_candidates));
+  const auto keys_host = candidate_keys_.host_part(3 * n);
+  Kokkos::deep_copy(keys_host, keys);
+  const auto cell = [&](index_t k) { return keys_host(3 * k); };
+  const auto id = [&](index_t k) { return keys_host(3 * k + 1); };
+  const auto index = [&](index_t k) { return static_cast<index_t>(keys_host(3 * k + 2)); };
+  std::vector<index_t> order(n);
   std::iota(order.begin(), order.end(), index_t(0));
   std::sort(order.begin(), order.end(), [&](index_t a, index_t b) {
     return cell(a) != cell(b) ? cell(a) < cell(b) : id(a) < id(b);
@@ -94,18 +101,29 @@ index_t ParticleMerging::merge(ParticleState& particles, const ParticleBoundarie
   const index_t num_pairs = static_cast<index_t>(keep.size());
   if (num_pairs == 0) return 0;
 
-  const IndexView keep_device = to_device_indices("merge_keep", keep);
-  const IndexView gone_device = to_device_indices("merge_gone", gone);
+  // keep, gone, and gone in increasing index order (the merged-away particles, as the compaction
+  // wants them), one after the other.
+  const size_t pairs = keep.size();
+  pair_lists_.hold(3 * pairs, "merge_pair_lists");
+  {
+    const auto host = pair_lists_.host_part(3 * pairs);
+    std::copy(keep.begin(), keep.end(), host.data());
+    std::copy(gone.begin(), gone.end(), host.data() + pairs);
+    std::sort(gone.begin(), gone.end());
+    std::copy(gone.begin(), gone.end(), host.data() + 2 * pairs);
+    Kokkos::deep_copy(pair_lists_.part(3 * pairs), host);
+  }
+  const auto list = [&](size_t k) {
+    return Kokkos::subview(pair_lists_.device, std::make_pair(k * pairs, (k + 1) * pairs));
+  };
+  const IndexView keep_device = list(0), gone_device = list(1), removed = list(2);
   Kokkos::parallel_for(
       "merge_pairs", Kokkos::RangePolicy<ExecutionSpace>(0, num_pairs),
       KOKKOS_LAMBDA(const index_t k) { merge_pair(pt, keep_device(k), gone_device(k), boundaries); });
 
-  // The merged-away particles removed, in increasing index order as the compaction wants.
-  std::sort(gone.begin(), gone.end());
-  const IndexView removed = to_device_indices("merge_removed", gone);
   const RealView mass = pt.mass;
-  const HoleFilling plan =
-      plan_hole_filling(pt.count, removed, KOKKOS_LAMBDA(const index_t p) { return mass(p) == real_t(0); });
+  const HoleFilling plan = plan_hole_filling(
+      pt.count, removed, KOKKOS_LAMBDA(const index_t p) { return mass(p) == real_t(0); }, fillers_);
   copy_particles("particle_fill_holes", particles, plan.holes, 0, plan.fillers, plan.count);
   particles.count = plan.staying;
   return num_pairs;

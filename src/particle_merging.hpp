@@ -46,8 +46,13 @@ class ParticleMerging {
  private:
   bool enabled_ = false;
   real_t initial_volume_ = 0;
-  // The candidates' list (select_indices), kept from call to call: scratch, not state.
+  // Kept from call to call, scratch, not state: the candidates' list (select_indices), their keys
+  // (cell, id, index) with a host copy, the pairs' lists (keep, gone, removed) likewise, and the
+  // hole fillers (plan_hole_filling).
   mutable IndexView candidates_;
+  mutable KeptBuffer<ParticleIdView> candidate_keys_;
+  mutable KeptBuffer<IndexView> pair_lists_;
+  mutable IndexView fillers_;
 };
 
 }  // namespace mpmflow

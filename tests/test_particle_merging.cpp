@@ -7,6 +7,7 @@
 #include <map>
 #include <vector>
 
+#include "allocation_tracker.hpp"
 #include "gas_physics.hpp"
 #include "geometry.hpp"
 #include "particle_merging.hpp"
@@ -130,6 +131,20 @@ TEST(ParticleMerging, TinyParticlesOfACellMergeInIdOrderConservingMassMomentumEn
   EXPECT_NEAR(after.momentum_y, before.momentum_y, 1e-15);
   EXPECT_NEAR(after.energy, before.energy, 1e-15 * before.energy);
   EXPECT_NEAR(after.volume, before.volume, 1e-15 * before.volume);
+}
+
+// Merging runs every step: its lists and their host copies are kept from call to call, so that a
+// second merge of as many candidates allocates nothing (on a GPU an allocation and its free cost
+// more than the merge's kernels).
+TEST(ParticleMerging, ASecondMergeOfAsManyCandidatesAllocatesNothing) {
+  const GridGeometry g = unit_grid();
+  const ParticleMerging merging(merging_case(), g);
+  for (int round = 0; round < 2; ++round) {
+    ParticleState pt = to_particles(g, example());  // the same particles each round
+    const AllocationTracker allocations;
+    EXPECT_EQ(merging.merge(pt), 2) << "round " << round;
+    if (round == 1) EXPECT_EQ(allocations.allocation_count(), 0) << "allocations in the second merge";
+  }
 }
 
 TEST(ParticleMerging, TheResultDoesNotDependOnTheParticleOrder) {
