@@ -41,62 +41,83 @@ void for_each_index_in_lanes(const char* label, index_t n, const Body& body) {
 // Runs body(i) for the i in [first, last) where maybe(i), for passes in which few indices have
 // work: on CPUs the test runs as vector lanes over blocks of index_block_size indices (a loop that
 // tests and branches on each index stays scalar), then body takes the block's selected indices one
-// by one; elsewhere (GPUs) one index per thread. maybe(i) reads, body(i) writes only what belongs
-// to i or adds through a ScatterView.
+// by one (_in_blocks); elsewhere (GPUs) one index per thread (_one_by_one). maybe(i) reads, body(i)
+// writes only what belongs to i or adds through a ScatterView. (Both forms by name: the tests run
+// each on any back-end.)
+template <class Maybe, class Body>
+void for_each_index_where_in_blocks(const char* label, index_t first, index_t last, const Maybe& maybe,
+                                    const Body& body) {
+  if (first >= last) return;
+  constexpr int L = index_block_size;
+  const index_t n = last - first;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L), KOKKOS_LAMBDA(const index_t k) {
+        const index_t begin = first + k * L;
+        const int count = last - begin < L ? static_cast<int>(last - begin) : L;
+        real_t selected[L];  // 1 or 0 (a real: GCC vectorises a select on reals)
+        MPMFLOW_VECTORISE
+        for (int l = 0; l < count; ++l) selected[l] = maybe(begin + l) ? real_t(1) : real_t(0);
+        for (int l = 0; l < count; ++l)
+          if (selected[l] != 0) body(begin + l);
+      });
+}
+template <class Maybe, class Body>
+void for_each_index_where_one_by_one(const char* label, index_t first, index_t last, const Maybe& maybe,
+                                     const Body& body) {
+  if (first >= last) return;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(first, last), KOKKOS_LAMBDA(const index_t i) {
+        if (maybe(i)) body(i);
+      });
+}
 template <class Maybe, class Body>
 void for_each_index_where(const char* label, index_t first, index_t last, const Maybe& maybe, const Body& body) {
-  if (first >= last) return;
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
-    constexpr int L = index_block_size;
-    const index_t n = last - first;
-    Kokkos::parallel_for(
-        label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L), KOKKOS_LAMBDA(const index_t k) {
-          const index_t begin = first + k * L;
-          const int count = last - begin < L ? static_cast<int>(last - begin) : L;
-          real_t selected[L];  // 1 or 0 (a real: GCC vectorises a select on reals)
-          MPMFLOW_VECTORISE
-          for (int l = 0; l < count; ++l) selected[l] = maybe(begin + l) ? real_t(1) : real_t(0);
-          for (int l = 0; l < count; ++l)
-            if (selected[l] != 0) body(begin + l);
-        });
-  } else {
-    Kokkos::parallel_for(
-        label, Kokkos::RangePolicy<ExecutionSpace>(first, last), KOKKOS_LAMBDA(const index_t i) {
-          if (maybe(i)) body(i);
-        });
-  }
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+    for_each_index_where_in_blocks(label, first, last, maybe, body);
+  else
+    for_each_index_where_one_by_one(label, first, last, maybe, body);
 }
 
 // The largest value_of(i) for i in [0, n) (Kokkos::Max's identity, the lowest real, for n = 0); a
 // NaN counts as `nan_counts_as` (the caller's mark for a broken state, which must win). On CPUs
 // value_of runs as vector lanes over blocks of index_block_size indices (its divisions and square
-// roots 8 at a time), and each block's values are then compared one by one; elsewhere one index
-// per thread.
+// roots 8 at a time), and each block's values are then compared one by one (_in_blocks); elsewhere
+// one index per thread (_one_by_one). (Both by name, as above.)
 KOKKOS_INLINE_FUNCTION void keep_larger(real_t value, real_t& so_far, real_t nan_counts_as) {
   if (!(value <= so_far)) so_far = value == value ? value : nan_counts_as;
 }
 template <class ValueOf>
-real_t largest_over_indices(const char* label, index_t n, real_t nan_counts_as, const ValueOf& value_of) {
+real_t largest_over_indices_in_blocks(const char* label, index_t n, real_t nan_counts_as, const ValueOf& value_of) {
   real_t largest = 0;
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
-    constexpr int L = index_block_size;
-    Kokkos::parallel_reduce(
-        label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L),
-        KOKKOS_LAMBDA(const index_t k, real_t& local) {
-          const index_t first = k * L;
-          const int count = n - first < L ? static_cast<int>(n - first) : L;
-          real_t value[L];
-          MPMFLOW_VECTORISE
-          for (int l = 0; l < count; ++l) value[l] = value_of(first + l);
-          for (int l = 0; l < count; ++l) keep_larger(value[l], local, nan_counts_as);
-        },
-        Kokkos::Max<real_t>(largest));
-  } else {
-    Kokkos::parallel_reduce(
-        label, Kokkos::RangePolicy<ExecutionSpace>(0, n),
-        KOKKOS_LAMBDA(const index_t i, real_t& local) { keep_larger(value_of(i), local, nan_counts_as); }, Kokkos::Max<real_t>(largest));
-  }
+  constexpr int L = index_block_size;
+  Kokkos::parallel_reduce(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L),
+      KOKKOS_LAMBDA(const index_t k, real_t& local) {
+        const index_t first = k * L;
+        const int count = n - first < L ? static_cast<int>(n - first) : L;
+        real_t value[L];
+        MPMFLOW_VECTORISE
+        for (int l = 0; l < count; ++l) value[l] = value_of(first + l);
+        for (int l = 0; l < count; ++l) keep_larger(value[l], local, nan_counts_as);
+      },
+      Kokkos::Max<real_t>(largest));
   return largest;
+}
+template <class ValueOf>
+real_t largest_over_indices_one_by_one(const char* label, index_t n, real_t nan_counts_as, const ValueOf& value_of) {
+  real_t largest = 0;
+  Kokkos::parallel_reduce(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, n),
+      KOKKOS_LAMBDA(const index_t i, real_t& local) { keep_larger(value_of(i), local, nan_counts_as); },
+      Kokkos::Max<real_t>(largest));
+  return largest;
+}
+template <class ValueOf>
+real_t largest_over_indices(const char* label, index_t n, real_t nan_counts_as, const ValueOf& value_of) {
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+    return largest_over_indices_in_blocks(label, n, nan_counts_as, value_of);
+  else
+    return largest_over_indices_one_by_one(label, n, nan_counts_as, value_of);
 }
 
 }  // namespace mpmflow

@@ -75,57 +75,70 @@ TEST(TimeStep, ASurelyValidStateIsValid) {
   EXPECT_TRUE(surely_valid_gas_state(gamma, 1e-6, 1e-8, 0, 0));
 }
 
-// The largest of the first n values with largest_over_indices (a free function: nvcc takes
-// device lambdas only in free or public member functions, and a TEST's body is private).
-real_t largest_of(const RealView& values, index_t n, real_t nan_counts_as) {
-  return largest_over_indices("test_largest", n, nan_counts_as, KOKKOS_LAMBDA(const index_t i) { return values(i); });
+// The two forms of the loops below: the CPUs' vector lanes over blocks of indices, and the GPUs'
+// index a thread, each run on whatever back-end the tests run on.
+enum class LoopForm { in_blocks, one_by_one };
+
+// The largest of the first n values with largest_over_indices' form `form` (a free function: nvcc
+// takes device lambdas only in free or public member functions, and a TEST's body is private).
+real_t largest_of(const RealView& values, index_t n, real_t nan_counts_as, LoopForm form) {
+  const auto value_of = KOKKOS_LAMBDA(const index_t i) { return values(i); };
+  return form == LoopForm::in_blocks ? largest_over_indices_in_blocks("test_largest", n, nan_counts_as, value_of)
+                                     : largest_over_indices_one_by_one("test_largest", n, nan_counts_as, value_of);
 }
 
-// largest_over_indices (the nodes' signal speed runs in its vector lanes): the largest value over
-// lengths that end within a block of lanes and on its edge, wherever in the range it lies; a NaN
-// anywhere wins as the caller's mark; no indices give Kokkos::Max's identity.
+// largest_over_indices (the nodes' signal speed runs in its vector lanes on CPUs), both forms: the
+// largest value over lengths that end within a block of lanes and on its edge, wherever in the
+// range it lies; a NaN anywhere wins as the caller's mark; no indices give Kokkos::Max's identity.
 TEST(TimeStep, TheLargestOverIndicesFindsItAnywhereAndANaNWins) {
   const real_t mark = std::numeric_limits<real_t>::max(), nan = std::nan("");
-  for (index_t n : {1, 31, 32, 33, 100, 1000}) {
-    for (index_t at : {index_t(0), n / 2, n - 1}) {
-      RealView values("values", n);
-      auto host = Kokkos::create_mirror_view(values);
-      for (index_t i = 0; i < n; ++i) host(i) = real_t(0.5) + real_t(i % 7) / 16;
-      host(at) = 3;
-      Kokkos::deep_copy(values, host);
-      EXPECT_EQ(largest_of(values, n, mark), 3) << n << " " << at;
-      Kokkos::deep_copy(Kokkos::subview(values, at), nan);
-      EXPECT_EQ(largest_of(values, n, mark), mark) << n << " " << at;
+  for (const LoopForm form : {LoopForm::in_blocks, LoopForm::one_by_one}) {
+    SCOPED_TRACE(form == LoopForm::in_blocks ? "in blocks" : "one by one");
+    for (index_t n : {1, 31, 32, 33, 100, 1000}) {
+      for (index_t at : {index_t(0), n / 2, n - 1}) {
+        RealView values("values", n);
+        auto host = Kokkos::create_mirror_view(values);
+        for (index_t i = 0; i < n; ++i) host(i) = real_t(0.5) + real_t(i % 7) / 16;
+        host(at) = 3;
+        Kokkos::deep_copy(values, host);
+        EXPECT_EQ(largest_of(values, n, mark, form), 3) << n << " " << at;
+        Kokkos::deep_copy(Kokkos::subview(values, at), nan);
+        EXPECT_EQ(largest_of(values, n, mark, form), mark) << n << " " << at;
+      }
     }
+    EXPECT_EQ(largest_of(RealView("none", 0), 0, mark, form), std::numeric_limits<real_t>::lowest());
   }
-  EXPECT_EQ(largest_of(RealView("none", 0), 0, mark), std::numeric_limits<real_t>::lowest());
 }
 
-// Marks with for_each_index_where, where index i in [first, last) is a multiple of `every` (a
-// free function, for nvcc, as largest_of).
-IndexView marked_where(index_t n, index_t first, index_t last, index_t every) {
+// Marks with for_each_index_where's form `form`, where index i in [first, last) is a multiple of
+// `every` (a free function, for nvcc, as largest_of).
+IndexView marked_where(index_t n, index_t first, index_t last, index_t every, LoopForm form) {
   IndexView mark("mark", n);
-  for_each_index_where(
-      "test_where", first, last, KOKKOS_LAMBDA(const index_t i) { return i % every == 0; },
-      KOKKOS_LAMBDA(const index_t i) { mark(i) += 1; });
+  const auto maybe = KOKKOS_LAMBDA(const index_t i) { return i % every == 0; };
+  const auto body = KOKKOS_LAMBDA(const index_t i) { mark(i) += 1; };
+  if (form == LoopForm::in_blocks) for_each_index_where_in_blocks("test_where", first, last, maybe, body);
+  else for_each_index_where_one_by_one("test_where", first, last, maybe, body);
   return mark;
 }
 
-// for_each_index_where (the far-field sides' strips take it): the body runs once for each index of
-// the range the test selects and for no other, over ranges that start and end within a block of
-// lanes and on its edges, and for no index of an empty range.
+// for_each_index_where (the far-field sides' strips take it), both forms: the body runs once for
+// each index of the range the test selects and for no other, over ranges that start and end within
+// a block of lanes and on its edges, and for no index of an empty range.
 TEST(TimeStep, ForEachIndexWhereRunsTheBodyForTheSelectedIndicesAlone) {
   const index_t n = 1000;
-  for (index_t first : {0, 7, 32}) {
-    for (index_t last : {first, first + 1, index_t(64), index_t(999), n}) {
-      for (index_t every : {1, 5, 33}) {
-        const auto mark = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), marked_where(n, first, last, every));
-        index_t wrong = 0;
-        for (index_t i = 0; i < n; ++i) wrong += mark(i) != ((i >= first && i < last && i % every == 0) ? 1 : 0);
-        EXPECT_EQ(wrong, 0) << first << " " << last << " " << every;
+  for (const LoopForm form : {LoopForm::in_blocks, LoopForm::one_by_one})
+    for (index_t first : {0, 7, 32}) {
+      for (index_t last : {first, first + 1, index_t(64), index_t(999), n}) {
+        for (index_t every : {1, 5, 33}) {
+          const auto mark =
+              Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), marked_where(n, first, last, every, form));
+          index_t wrong = 0;
+          for (index_t i = 0; i < n; ++i) wrong += mark(i) != ((i >= first && i < last && i % every == 0) ? 1 : 0);
+          EXPECT_EQ(wrong, 0) << (form == LoopForm::in_blocks ? "in blocks " : "one by one ") << first << " "
+                              << last << " " << every;
+        }
       }
     }
-  }
 }
 
 // The nodes' signal speed is |mv / m| + sqrt(gamma (sum phi P V) / m) over the nodes holding more
