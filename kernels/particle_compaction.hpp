@@ -161,19 +161,9 @@ struct HoleFilling {
   IndexView holes, fillers;
   index_t count = 0;    // holes to fill
 };
-template <class IsRemoved>
-HoleFilling plan_hole_filling(index_t n, const IndexView& removed, const IsRemoved& removed_at) {
-  HoleFilling plan;
-  plan.staying = n - static_cast<index_t>(removed.extent(0));
-  plan.holes = removed;
-  plan.fillers = select_indices(
-      "particle_hole_fillers", plan.staying, n, KOKKOS_LAMBDA(const index_t p) { return !removed_at(p); });
-  plan.count = static_cast<index_t>(plan.fillers.extent(0));  // = removed particles below `staying`
-  return plan;
-}
-// The same, the fillers listed in `buffer` (kept by the caller from call to call, grown here where it
-// is too short): for hole fillings made every step (the open sides'), no allocation a step and, on
-// CPUs, one pass over the particles above `staying` instead of two.
+// The fillers are listed in `buffer`, kept by the caller from call to call and grown here where it
+// is too short (hole fillings are made every step: open sides, migration, merging), so that a step
+// allocates nothing and, on CPUs, passes once over the particles above `staying`.
 template <class IsRemoved>
 HoleFilling plan_hole_filling(index_t n, const IndexView& removed, const IsRemoved& removed_at, IndexView& buffer) {
   HoleFilling plan;
@@ -181,7 +171,7 @@ HoleFilling plan_hole_filling(index_t n, const IndexView& removed, const IsRemov
   plan.holes = removed;
   plan.fillers = select_indices(
       "particle_hole_fillers", plan.staying, n, KOKKOS_LAMBDA(const index_t p) { return !removed_at(p); }, buffer);
-  plan.count = static_cast<index_t>(plan.fillers.extent(0));
+  plan.count = static_cast<index_t>(plan.fillers.extent(0));  // = removed particles below `staying`
   return plan;
 }
 
