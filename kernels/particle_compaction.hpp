@@ -12,66 +12,11 @@
 
 namespace mpmflow {
 
-// Indices p in [first, last) with keep(p) true, in increasing order: counted, then listed. Where the
-// particles are in host memory, each of `parts` consecutive ranges (a thread's) counts its own, then
-// lists them from its offset: Kokkos' parallel_scan on CPUs would evaluate the predicate twice
-// more. The same list for any number of parts (threads).
-template <class Predicate>
-IndexView select_indices_by_scan(const char* label, index_t first, index_t last, const Predicate& keep) {
-  index_t count = 0;
-  Kokkos::parallel_reduce(
-      label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
-      KOKKOS_LAMBDA(const index_t p, index_t& n) { n += keep(p) ? 1 : 0; }, count);
-  IndexView selected(std::string(label), static_cast<size_t>(count));
-  if (count == 0) return selected;
-  Kokkos::parallel_scan(
-      label, Kokkos::RangePolicy<ExecutionSpace>(first, last),
-      KOKKOS_LAMBDA(const index_t p, index_t& offset, const bool final) {
-        if (keep(p)) {
-          if (final) selected(offset) = p;
-          ++offset;
-        }
-      });
-  return selected;
-}
-template <class Predicate>
-IndexView select_indices_in_parts(const char* label, index_t first, index_t last, const Predicate& keep) {
-  const index_t parts = ExecutionSpace().concurrency(), n = last - first;
-  std::vector<index_t> offsets(static_cast<size_t>(parts + 1), 0);
-  index_t* const part_offset = offsets.data();
-  Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
-        // (The bounds in locals: the loop's stores might alias the captured values, and
-        // range_part_begin divides.)
-        const index_t begin = first + range_part_begin(n, parts, k), end = first + range_part_begin(n, parts, k + 1);
-        index_t count = 0;
-        for (index_t p = begin; p < end; ++p) count += keep(p) ? 1 : 0;
-        part_offset[k + 1] = count;
-      });
-  for (index_t k = 0; k < parts; ++k) offsets[k + 1] += offsets[k];
-  IndexView selected(std::string(label), static_cast<size_t>(offsets[parts]));
-  if (offsets[parts] == 0) return selected;
-  Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, parts), KOKKOS_LAMBDA(const index_t k) {
-        const index_t begin = first + range_part_begin(n, parts, k), end = first + range_part_begin(n, parts, k + 1);
-        index_t* out = selected.data() + part_offset[k];
-        for (index_t p = begin; p < end; ++p)
-          if (keep(p)) *out++ = p;
-      });
-  return selected;
-}
-template <class Predicate>
-IndexView select_indices(const char* label, index_t first, index_t last, const Predicate& keep) {
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
-    return select_indices_in_parts(label, first, last, keep);
-  else
-    return select_indices_by_scan(label, first, last, keep);
-}
-
-// The same, listed in `buffer` (kept by the caller from call to call, grown here where it is too
-// short) in one scan that also counts them: for selections made every step, a pass over the
-// particles fewer than counting first. Returns the first `count` entries of `buffer`. Where the
-// particles are in host memory, select_indices_in_parts instead.
+// Indices p in [first, last) with keep(p) true, in increasing order, listed in `buffer` (kept by the
+// caller from call to call, grown here where it is too short: the selections are made every step,
+// and a step allocates nothing) in one scan that also counts them, not a count and then a list: a
+// pass over the particles fewer. Returns the first `count` entries of `buffer`. Where the particles
+// are in host memory, select_indices_in_parts instead.
 template <class Predicate>
 IndexView select_indices_by_scan(const char* label, index_t first, index_t last, const Predicate& keep,
                                  IndexView& buffer) {
