@@ -16,7 +16,7 @@ constexpr int index_block_size = 32;
 // vectorisation (GCC keeps Kokkos' range loop scalar: it cannot tell that the iterations' View
 // accesses are independent), so that the body's divisions and square roots run 8 at a time with
 // AVX-512 (a body with a branch stays scalar: selects instead); one index per thread elsewhere
-// (GPUs).
+// (GPUs). (Both forms by name: the tests run each on any back-end.)
 template <int L, class Body>
 KOKKOS_FORCEINLINE_FUNCTION void run_block_in_lanes(const Body& body, index_t first, int count) {
   MPMFLOW_VECTORISE
@@ -31,11 +31,15 @@ void for_each_index_in_blocks(const char* label, index_t n, const Body& body) {
       });
 }
 template <class Body>
+void for_each_index_one_by_one(const char* label, index_t n, const Body& body) {
+  Kokkos::parallel_for(label, Kokkos::RangePolicy<ExecutionSpace>(0, n), body);
+}
+template <class Body>
 void for_each_index_in_lanes(const char* label, index_t n, const Body& body) {
   if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
     for_each_index_in_blocks(label, n, body);
   else
-    Kokkos::parallel_for(label, Kokkos::RangePolicy<ExecutionSpace>(0, n), body);
+    for_each_index_one_by_one(label, n, body);
 }
 
 // Runs body(i) for the i in [first, last) where maybe(i), for passes in which few indices have
@@ -76,6 +80,47 @@ void for_each_index_where(const char* label, index_t first, index_t last, const 
     for_each_index_where_in_blocks(label, first, last, maybe, body);
   else
     for_each_index_where_one_by_one(label, first, last, maybe, body);
+}
+
+// The sum of what body(i, sum) adds to sum for the i in [0, n) where maybe(i): for_each_index_where
+// with a total (the particle rules, which few particles reach in a step, and the energy they take
+// out), in the same two forms by name. A thread's body adds to its own partial sum, in index order
+// within a thread's indices.
+template <class Maybe, class Body>
+double sum_over_indices_where_in_blocks(const char* label, index_t n, const Maybe& maybe, const Body& body) {
+  constexpr int L = index_block_size;
+  double sum = 0;
+  Kokkos::parallel_reduce(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L),
+      KOKKOS_LAMBDA(const index_t k, double& partial) {
+        const index_t begin = k * L;
+        const int count = n - begin < L ? static_cast<int>(n - begin) : L;
+        real_t selected[L];  // 1 or 0 (a real: GCC vectorises a select on reals)
+        MPMFLOW_VECTORISE
+        for (int l = 0; l < count; ++l) selected[l] = maybe(begin + l) ? real_t(1) : real_t(0);
+        for (int l = 0; l < count; ++l)
+          if (selected[l] != 0) body(begin + l, partial);
+      },
+      sum);
+  return sum;
+}
+template <class Maybe, class Body>
+double sum_over_indices_where_one_by_one(const char* label, index_t n, const Maybe& maybe, const Body& body) {
+  double sum = 0;
+  Kokkos::parallel_reduce(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, n),
+      KOKKOS_LAMBDA(const index_t i, double& partial) {
+        if (maybe(i)) body(i, partial);
+      },
+      sum);
+  return sum;
+}
+template <class Maybe, class Body>
+double sum_over_indices_where(const char* label, index_t n, const Maybe& maybe, const Body& body) {
+  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+    return sum_over_indices_where_in_blocks(label, n, maybe, body);
+  else
+    return sum_over_indices_where_one_by_one(label, n, maybe, body);
 }
 
 // The largest value_of(i) for i in [0, n) (Kokkos::Max's identity, the lowest real, for n = 0); a

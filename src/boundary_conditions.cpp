@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <type_traits>
 #include <vector>
 
 #include <Kokkos_ScatterView.hpp>
@@ -298,51 +297,16 @@ ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab&
 namespace {
 
 // sum += what rule(p, sum) adds, over the particles a rule may reach (those ParticleBoundaries
-// does not leave alone). On CPUs in blocks of index_block_size particles: which of a block's
-// particles a rule may reach is tested as vector lanes (two loads and eight comparisons a
-// particle), then the rules run for those alone; Kokkos' loop over the particles one by one
-// stayed scalar and branched on every particle. Elsewhere (GPUs) one particle per thread.
-template <int L, class Rule>
-KOKKOS_FORCEINLINE_FUNCTION void apply_rules_in_block(const ParticleBoundaries& rules, const real_t* x,
-                                                      const real_t* y, index_t first, int count, const Rule& rule,
-                                                      double& sum) {
-  real_t reached[L];  // 1 where a rule may apply (a real: GCC vectorises a select on reals)
-  MPMFLOW_VECTORISE
-  for (int l = 0; l < count; ++l) reached[l] = rules.leaves_alone(x[first + l], y[first + l]) ? real_t(0) : real_t(1);
-  for (int l = 0; l < count; ++l)
-    if (reached[l] != 0) rule(first + l, sum);
-}
-template <class Rule>
-double sum_over_particles_in_blocks(const char* label, const ParticleBoundaries& rules, const ParticleState& pt,
-                                    const Rule& rule) {
-  constexpr int L = index_block_size;
-  const index_t n = pt.count;
-  const RealView x = pt.position_x, y = pt.position_y;
-  double sum = 0;
-  Kokkos::parallel_reduce(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L),
-      KOKKOS_LAMBDA(const index_t k, double& partial) {
-        apply_rules_in_block<L>(rules, x.data(), y.data(), k * L, n - k * L < L ? static_cast<int>(n - k * L) : L,
-                                rule, partial);
-      },
-      sum);
-  return sum;
-}
-template <class Rule>
-double sum_over_particles_one_by_one(const char* label, const ParticleState& pt, const Rule& rule) {
-  double sum = 0;
-  Kokkos::parallel_reduce(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, pt.count),
-      KOKKOS_LAMBDA(const index_t p, double& partial) { rule(p, partial); }, sum);
-  return sum;
-}
+// does not leave alone; on CPUs tested as vector lanes, two loads and eight comparisons a particle,
+// then the rules run for those alone: Kokkos' loop over the particles one by one stayed scalar and
+// branched on every particle). sum_over_indices_where, kernels/index_lanes.hpp.
 template <class Rule>
 double sum_over_particles_rules_reach(const char* label, const ParticleBoundaries& rules, const ParticleState& pt,
                                       const Rule& rule) {
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
-    return sum_over_particles_in_blocks(label, rules, pt, rule);
-  else
-    return sum_over_particles_one_by_one(label, pt, rule);
+  const real_t* const x = pt.position_x.data();
+  const real_t* const y = pt.position_y.data();
+  return sum_over_indices_where(
+      label, pt.count, KOKKOS_LAMBDA(const index_t p) { return !rules.leaves_alone(x[p], y[p]); }, rule);
 }
 
 }  // namespace

@@ -141,6 +141,52 @@ TEST(TimeStep, ForEachIndexWhereRunsTheBodyForTheSelectedIndicesAlone) {
     }
 }
 
+// Marks every index of [0, n) with for_each_index_in_lanes' form `form` (a free function, for nvcc,
+// as largest_of).
+IndexView marked_each(index_t n, LoopForm form) {
+  IndexView mark("mark", n + 1);  // one more, which no body may touch
+  const auto body = KOKKOS_LAMBDA(const index_t i) { mark(i) += 1; };
+  if (form == LoopForm::in_blocks) for_each_index_in_blocks("test_each", n, body);
+  else for_each_index_one_by_one("test_each", n, body);
+  return mark;
+}
+
+// for_each_index_in_lanes (the relaxation's passes and the cell map take it), both forms: the body
+// runs once for each index, over counts that end within a block of lanes and on its edge, and for
+// none beyond.
+TEST(TimeStep, ForEachIndexInLanesRunsTheBodyOnceForEachIndex) {
+  for (const LoopForm form : {LoopForm::in_blocks, LoopForm::one_by_one})
+    for (index_t n : {0, 1, 31, 32, 33, 64, 1000}) {
+      const auto mark = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), marked_each(n, form));
+      index_t wrong = 0;
+      for (index_t i = 0; i <= n; ++i) wrong += mark(i) != (i < n ? 1 : 0);
+      EXPECT_EQ(wrong, 0) << (form == LoopForm::in_blocks ? "in blocks " : "one by one ") << n;
+    }
+}
+
+// The sum over i in [0, n) where i is a multiple of `every` of i + 1, by sum_over_indices_where's form
+// `form` (a free function, for nvcc, as largest_of).
+double summed_where(index_t n, index_t every, LoopForm form) {
+  const auto maybe = KOKKOS_LAMBDA(const index_t i) { return i % every == 0; };
+  const auto body = KOKKOS_LAMBDA(const index_t i, double& sum) { sum += double(i + 1); };
+  return form == LoopForm::in_blocks ? sum_over_indices_where_in_blocks("test_sum_where", n, maybe, body)
+                                     : sum_over_indices_where_one_by_one("test_sum_where", n, maybe, body);
+}
+
+// sum_over_indices_where (the particle rules' lost energy takes it), both forms: what the body adds
+// for each selected index, once, and for no other (whole numbers: exact in any order), over counts
+// that end within a block of lanes and on its edge, and nothing for no indices.
+TEST(TimeStep, SumOverIndicesWhereAddsTheSelectedIndicesAlone) {
+  for (const LoopForm form : {LoopForm::in_blocks, LoopForm::one_by_one})
+    for (index_t n : {0, 1, 31, 32, 33, 64, 1000})
+      for (index_t every : {1, 5, 33}) {
+        double expected = 0;
+        for (index_t i = 0; i < n; i += every) expected += double(i + 1);
+        EXPECT_EQ(summed_where(n, every, form), expected)
+            << (form == LoopForm::in_blocks ? "in blocks " : "one by one ") << n << " " << every;
+      }
+}
+
 // The nodes' signal speed is |mv / m| + sqrt(gamma (sum phi P V) / m) over the nodes holding more
 // than the threshold's mass: against a host loop, over a grid of varied nodes, one of them fast
 // and one nearly empty node faster, which must not count.
