@@ -333,6 +333,7 @@ double apply_particle_rules(const ParticleBoundaries& boundaries, const Particle
   if (forces->particle_impulse.extent(0) != num_obstacles) {
     forces->particle_impulse = ObstacleForces::ImpulseView("obstacle_particle_impulse", num_obstacles, 2);
     forces->particle_impulse_scatter = Kokkos::Experimental::create_scatter_view(forces->particle_impulse);
+    forces->particle_impulse_host = Kokkos::create_mirror_view(forces->particle_impulse);
   }
   ObstacleForces::ImpulseView impulse = forces->particle_impulse;
   auto scatter = forces->particle_impulse_scatter;
@@ -351,7 +352,8 @@ double apply_particle_rules(const ParticleBoundaries& boundaries, const Particle
         access(o, 1) += iy;
       });
   Kokkos::Experimental::contribute(impulse, scatter);
-  auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), impulse);
+  const ObstacleForces::ImpulseView::HostMirror host = forces->particle_impulse_host;
+  Kokkos::deep_copy(host, impulse);
   for (size_t o = 0; o < num_obstacles; ++o) {
     forces->x[o] += host(o, 0) / dt;
     forces->y[o] += host(o, 1) / dt;

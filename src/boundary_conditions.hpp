@@ -67,10 +67,11 @@ struct DomainBox {
 // summed over the nodes this slab owns.
 struct ObstacleForces {
   std::vector<double> x, y;
-  // The particles' impulse on each obstacle in the particle move, (obstacle, {x, y}), and its
-  // accumulator: allocated once, not every step (apply_particle_boundaries).
+  // The particles' impulse on each obstacle in the particle move, (obstacle, {x, y}), its
+  // accumulator and its host copy: allocated once, not every step (apply_particle_boundaries).
   using ImpulseView = Kokkos::View<double**, DeviceType>;
   ImpulseView particle_impulse;
+  ImpulseView::HostMirror particle_impulse_host;
   decltype(Kokkos::Experimental::create_scatter_view(ImpulseView())) particle_impulse_scatter;
 };
 

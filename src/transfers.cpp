@@ -540,6 +540,7 @@ class Transfers final : public TransferKernels {
         fields_(fields),
         shape_(make_shape<Shape>(config, geometry)),
         in_doubt_count_("p2g_particles_in_doubt", 1),
+        in_doubt_count_host_(Kokkos::create_mirror_view(in_doubt_count_)),
         in_doubt_(in_doubt_count_) {}
 
   void p2g_mass_momentum_force(const ParticleState& pt) override {
@@ -570,8 +571,8 @@ class Transfers final : public TransferKernels {
   }
 
   index_t particles_in_doubt() const override {
-    auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), in_doubt_count_);
-    return host(0);
+    Kokkos::deep_copy(in_doubt_count_host_, in_doubt_count_);
+    return in_doubt_count_host_(0);
   }
 
   void g2p_p2g_velocity_momentum(const ParticleState& pt, real_t dt) override {
@@ -672,6 +673,9 @@ class Transfers final : public TransferKernels {
   GridFields fields_;  // (after accumulation_, which may set its state)
   Shape shape_;
   IndexView in_doubt_count_;  // of the last p2g_mass_momentum_force
+  // Its host copy, kept: read every step, a mirror made for each read would be a host allocation a
+  // step on a GPU (on CPUs the View itself).
+  IndexView::HostMirror in_doubt_count_host_;
   DoubtCounter in_doubt_;
 };
 
