@@ -4,6 +4,7 @@
 // cell map). The transfer kernels batch their particles the same way (transfer_kernels.hpp).
 #include <type_traits>
 
+#include "kernels/reductions.hpp"
 #include "kernels/types.hpp"
 
 namespace mpmflow {
@@ -82,45 +83,69 @@ void for_each_index_where(const char* label, index_t first, index_t last, const 
     for_each_index_where_one_by_one(label, first, last, maybe, body);
 }
 
-// The sum of what body(i, sum) adds to sum for the i in [0, n) where maybe(i): for_each_index_where
-// with a total (the particle rules, which few particles reach in a step, and the energy they take
-// out), in the same two forms by name. A thread's body adds to its own partial sum, in index order
-// within a thread's indices.
+// The totals[0 .. count) of what body(i, sums) adds to sums[0 .. count) for the i in [0, n) where
+// maybe(i): for_each_index_where with totals (the particle rules, which few particles reach in a
+// step: the energy they take out and each obstacle's impulse), in the same two forms by name. One
+// array reduction (Kokkos' value_type double[]): the host waits once for all the totals, which are
+// summed in the same order from run to run on any back-end (a ScatterView's atomic additions on a
+// GPU are not). `totals`: count entries of host memory, all 0 for n = 0.
 template <class Maybe, class Body>
-double sum_over_indices_where_in_blocks(const char* label, index_t n, const Maybe& maybe, const Body& body) {
+struct SumsWhereInBlocks {
+  using value_type = double[];
+  unsigned value_count;  // (Kokkos' name: the length of an array reduction)
+  index_t n;
+  Maybe maybe;
+  Body body;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sums) const {
+    constexpr int L = index_block_size;
+    const index_t begin = k * L;
+    const int count = n - begin < L ? static_cast<int>(n - begin) : L;
+    real_t selected[L];  // 1 or 0 (a real: GCC vectorises a select on reals)
+    MPMFLOW_VECTORISE
+    for (int l = 0; l < count; ++l) selected[l] = maybe(begin + l) ? real_t(1) : real_t(0);
+    for (int l = 0; l < count; ++l)
+      if (selected[l] != 0) body(begin + l, sums);
+  }
+};
+template <class Maybe, class Body>
+struct SumsWhereOneByOne {
+  using value_type = double[];
+  unsigned value_count;
+  Maybe maybe;
+  Body body;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t i, value_type sums) const {
+    if (maybe(i)) body(i, sums);
+  }
+};
+inline bool no_totals_to_sum(index_t n, int count, double* totals) {
+  if (n > 0) return false;
+  for (int k = 0; k < count; ++k) totals[k] = 0;
+  return true;
+}
+template <class Maybe, class Body>
+void sums_over_indices_where_in_blocks(const char* label, index_t n, int count, const Maybe& maybe, const Body& body,
+                                       double* totals) {
+  if (no_totals_to_sum(n, count, totals)) return;
   constexpr int L = index_block_size;
-  double sum = 0;
-  Kokkos::parallel_reduce(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L),
-      KOKKOS_LAMBDA(const index_t k, double& partial) {
-        const index_t begin = k * L;
-        const int count = n - begin < L ? static_cast<int>(n - begin) : L;
-        real_t selected[L];  // 1 or 0 (a real: GCC vectorises a select on reals)
-        MPMFLOW_VECTORISE
-        for (int l = 0; l < count; ++l) selected[l] = maybe(begin + l) ? real_t(1) : real_t(0);
-        for (int l = 0; l < count; ++l)
-          if (selected[l] != 0) body(begin + l, partial);
-      },
-      sum);
-  return sum;
+  Kokkos::parallel_reduce(label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L),
+                          SumsWhereInBlocks<Maybe, Body>{static_cast<unsigned>(count), n, maybe, body},
+                          HostTotals(totals, static_cast<size_t>(count)));
 }
 template <class Maybe, class Body>
-double sum_over_indices_where_one_by_one(const char* label, index_t n, const Maybe& maybe, const Body& body) {
-  double sum = 0;
-  Kokkos::parallel_reduce(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, n),
-      KOKKOS_LAMBDA(const index_t i, double& partial) {
-        if (maybe(i)) body(i, partial);
-      },
-      sum);
-  return sum;
+void sums_over_indices_where_one_by_one(const char* label, index_t n, int count, const Maybe& maybe,
+                                        const Body& body, double* totals) {
+  if (no_totals_to_sum(n, count, totals)) return;
+  Kokkos::parallel_reduce(label, Kokkos::RangePolicy<ExecutionSpace>(0, n),
+                          SumsWhereOneByOne<Maybe, Body>{static_cast<unsigned>(count), maybe, body},
+                          HostTotals(totals, static_cast<size_t>(count)));
 }
 template <class Maybe, class Body>
-double sum_over_indices_where(const char* label, index_t n, const Maybe& maybe, const Body& body) {
+void sums_over_indices_where(const char* label, index_t n, int count, const Maybe& maybe, const Body& body,
+                             double* totals) {
   if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
-    return sum_over_indices_where_in_blocks(label, n, maybe, body);
+    sums_over_indices_where_in_blocks(label, n, count, maybe, body, totals);
   else
-    return sum_over_indices_where_one_by_one(label, n, maybe, body);
+    sums_over_indices_where_one_by_one(label, n, count, maybe, body, totals);
 }
 
 // The largest value_of(i) for i in [0, n) (Kokkos::Max's identity, the lowest real, for n = 0); a

@@ -2,8 +2,7 @@
 // Boundary conditions on grid nodal vectors (Algorithm 1, steps 4 and 9) and on particles after
 // their move: the wind tunnel's sides and the obstacles.
 #include <array>
-
-#include <Kokkos_ScatterView.hpp>
+#include <vector>
 
 #include "case_config.hpp"
 #include "geometry.hpp"
@@ -67,12 +66,6 @@ struct DomainBox {
 // summed over the nodes this slab owns.
 struct ObstacleForces {
   std::vector<double> x, y;
-  // The particles' impulse on each obstacle in the particle move, (obstacle, {x, y}), its
-  // accumulator and its host copy: allocated once, not every step (apply_particle_boundaries).
-  using ImpulseView = Kokkos::View<double**, DeviceType>;
-  ImpulseView particle_impulse;
-  ImpulseView::HostMirror particle_impulse_host;
-  decltype(Kokkos::Experimental::create_scatter_view(ImpulseView())) particle_impulse_scatter;
 };
 
 class GridBoundaryConditions {

@@ -164,24 +164,29 @@ TEST(TimeStep, ForEachIndexInLanesRunsTheBodyOnceForEachIndex) {
     }
 }
 
-// The sum over i in [0, n) where i is a multiple of `every` of i + 1, by sum_over_indices_where's form
-// `form` (a free function, for nvcc, as largest_of).
-double summed_where(index_t n, index_t every, LoopForm form) {
+// The sums over i in [0, n) where i is a multiple of `every` of i + 1 into total i % 3, by
+// sums_over_indices_where's form `form` (a free function, for nvcc, as largest_of).
+std::vector<double> summed_where(index_t n, index_t every, LoopForm form) {
+  std::vector<double> totals(3, -1.0);  // (not 0: each must be written)
   const auto maybe = KOKKOS_LAMBDA(const index_t i) { return i % every == 0; };
-  const auto body = KOKKOS_LAMBDA(const index_t i, double& sum) { sum += double(i + 1); };
-  return form == LoopForm::in_blocks ? sum_over_indices_where_in_blocks("test_sum_where", n, maybe, body)
-                                     : sum_over_indices_where_one_by_one("test_sum_where", n, maybe, body);
+  const auto body = KOKKOS_LAMBDA(const index_t i, double* sums) { sums[i % 3] += double(i + 1); };
+  if (form == LoopForm::in_blocks)
+    sums_over_indices_where_in_blocks("test_sums_where", n, 3, maybe, body, totals.data());
+  else
+    sums_over_indices_where_one_by_one("test_sums_where", n, 3, maybe, body, totals.data());
+  return totals;
 }
 
-// sum_over_indices_where (the particle rules' lost energy takes it), both forms: what the body adds
-// for each selected index, once, and for no other (whole numbers: exact in any order), over counts
-// that end within a block of lanes and on its edge, and nothing for no indices.
-TEST(TimeStep, SumOverIndicesWhereAddsTheSelectedIndicesAlone) {
+// sums_over_indices_where (the particle rules' lost energy and obstacle impulses take it), both
+// forms: what the body adds for each selected index, once, and for no other (whole numbers: exact
+// in any order), into each total, over counts that end within a block of lanes and on its edge, and
+// zeros for no indices.
+TEST(TimeStep, SumsOverIndicesWhereAddTheSelectedIndicesAlone) {
   for (const LoopForm form : {LoopForm::in_blocks, LoopForm::one_by_one})
     for (index_t n : {0, 1, 31, 32, 33, 64, 1000})
       for (index_t every : {1, 5, 33}) {
-        double expected = 0;
-        for (index_t i = 0; i < n; i += every) expected += double(i + 1);
+        std::vector<double> expected(3, 0.0);
+        for (index_t i = 0; i < n; i += every) expected[static_cast<size_t>(i % 3)] += double(i + 1);
         EXPECT_EQ(summed_where(n, every, form), expected)
             << (form == LoopForm::in_blocks ? "in blocks " : "one by one ") << n << " " << every;
       }
