@@ -313,6 +313,8 @@ double apply_particle_rules(const ParticleBoundaries& boundaries, const Particle
         index_t o = 0;
         double lost = 0;
         const bool hit = rules.apply(p, pt, ix, iy, o, lost);
+        // Only where a rule took some: the rules store into particle fields, so the compiler keeps
+        // the sums in memory, and an addition for every particle chained each to the last.
         if (lost != 0) sums[0] += lost;
         if (hit && o < num_obstacles) {
           sums[1 + 2 * o] += ix;

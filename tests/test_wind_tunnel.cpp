@@ -797,6 +797,65 @@ TEST(GridConditions, ObstacleNodesKeepNoNormalMomentumOrForceAndTheBodyTakesTheF
   EXPECT_NEAR(forces.y[0], removed_y, 1e-12);
 }
 
+// The particle rules after a move (Algorithm 1, step 11), with two obstacles: a particle that moved
+// into one with an inward normal velocity loses that velocity, and the body it entered takes its
+// impulse over dt (the other body none of it); one moving out of an obstacle is put back on its
+// surface but keeps its velocity and gives no impulse; one through a slip wall is mirrored and
+// loses its outward velocity; the kinetic energy taken is what they lost. All the others, placed in
+// the gas, are left alone.
+TEST(ParticleRules, ObstaclesTakeTheInwardVelocityAndEachBodyItsOwnImpulse) {
+  const CaseConfig config = tunnel_config(R"(, "obstacles": [{"type": "circle", "centre": [1, 1], "radius": 0.25},
+      {"type": "circle", "centre": [3, 1], "radius": 0.25}])");
+  const GridSlab slab = make_grid_slab(config.domain, 0, 0, 40);
+  const SlabState slab_state(config, slab);
+  ParticleState pt = create_initial_particles(config, slab);
+  ASSERT_GT(pt.count, 100);
+  // (x, y, vx, vy) of the first four particles: into obstacle 0 from its right (outward normal
+  // (1, 0)), into obstacle 1 from below (normal (0, -1)), out of obstacle 1 upwards, and below the
+  // bottom wall moving down.
+  const double moved[4][4] = {
+      {1.1, 1.0, -2.0, 0.5}, {3.0, 0.85, 0.3, 1.5}, {3.0, 1.1, 0.0, 1.0}, {2.0, -0.01, 0.4, -0.7}};
+  auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.position_x);
+  auto y = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.position_y);
+  auto vx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.velocity_x);
+  auto vy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.velocity_y);
+  const auto m = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.mass);
+  for (int k = 0; k < 4; ++k) x(k) = moved[k][0], y(k) = moved[k][1], vx(k) = moved[k][2], vy(k) = moved[k][3];
+  Kokkos::deep_copy(pt.position_x, x);
+  Kokkos::deep_copy(pt.position_y, y);
+  Kokkos::deep_copy(pt.velocity_x, vx);
+  Kokkos::deep_copy(pt.velocity_y, vy);
+  const auto vx_before = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.velocity_x);
+  const auto vy_before = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.velocity_y);
+  const real_t dt = real_t(0.01);
+  ObstacleForces forces;
+  forces.x = {0.5, -0.25};  // what the grid's condition gave in the same step: added to
+  forces.y = {0.125, 0.0};
+  const double stopped = apply_particle_rules(slab_state.particle_boundaries(), pt, dt, &forces);
+  Kokkos::deep_copy(vx, pt.velocity_x);
+  Kokkos::deep_copy(vy, pt.velocity_y);
+  Kokkos::deep_copy(x, pt.position_x);
+  Kokkos::deep_copy(y, pt.position_y);
+  const double tolerance = 1e-12;
+  EXPECT_NEAR(forces.x[0], 0.5 + m(0) * -2.0 / dt, tolerance);
+  EXPECT_NEAR(forces.y[0], 0.125, tolerance);
+  EXPECT_NEAR(forces.x[1], -0.25, tolerance);
+  EXPECT_NEAR(forces.y[1], m(1) * 1.5 / dt, tolerance);
+  EXPECT_NEAR(stopped, 0.5 * m(0) * 4.0 + 0.5 * m(1) * 2.25 + 0.5 * m(3) * 0.49, tolerance);
+  const double velocity_after[4][2] = {{0.0, 0.5}, {0.3, 0.0}, {0.0, 1.0}, {0.4, 0.0}};
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_NEAR(vx(k), velocity_after[k][0], tolerance) << "particle " << k;
+    EXPECT_NEAR(vy(k), velocity_after[k][1], tolerance) << "particle " << k;
+  }
+  EXPECT_GE(std::hypot(x(0) - 1, y(0) - 1), 0.25);  // on (just off) the surfaces it entered
+  EXPECT_GE(std::hypot(x(1) - 3, y(1) - 1), 0.25);
+  EXPECT_GE(std::hypot(x(2) - 3, y(2) - 1), 0.25);
+  EXPECT_NEAR(y(3), 0.01, tolerance);  // mirrored
+  index_t changed = 0;
+  for (index_t p = 4; p < pt.count; ++p) changed += vx(p) != vx_before(p) || vy(p) != vy_before(p);
+  EXPECT_EQ(changed, 0);
+}
+
 // ---- Memory at a growth ------------------------------------------------------------------------
 
 // When splitting makes the particle Views grow, each field's old storage goes as its new storage
