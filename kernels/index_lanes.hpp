@@ -43,6 +43,18 @@ void for_each_index_in_lanes(const char* label, index_t n, const Body& body) {
     for_each_index_one_by_one(label, n, body);
 }
 
+// body(i, extra...) for the i of the block [begin, begin + count) where maybe(i): the test as vector
+// lanes, then the selected indices one by one (the _in_blocks forms below).
+template <int L, class Maybe, class Body, class... Extra>
+KOKKOS_FORCEINLINE_FUNCTION void run_selected_in_block(const Maybe& maybe, const Body& body, index_t begin, int count,
+                                                       Extra... extra) {
+  real_t selected[L];  // 1 or 0 (a real: GCC vectorises a select on reals)
+  MPMFLOW_VECTORISE
+  for (int l = 0; l < count; ++l) selected[l] = maybe(begin + l) ? real_t(1) : real_t(0);
+  for (int l = 0; l < count; ++l)
+    if (selected[l] != 0) body(begin + l, extra...);
+}
+
 // Runs body(i) for the i in [first, last) where maybe(i), for passes in which few indices have
 // work: on CPUs the test runs as vector lanes over blocks of index_block_size indices (a loop that
 // tests and branches on each index stays scalar), then body takes the block's selected indices one
@@ -58,12 +70,7 @@ void for_each_index_where_in_blocks(const char* label, index_t first, index_t la
   Kokkos::parallel_for(
       label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L), KOKKOS_LAMBDA(const index_t k) {
         const index_t begin = first + k * L;
-        const int count = last - begin < L ? static_cast<int>(last - begin) : L;
-        real_t selected[L];  // 1 or 0 (a real: GCC vectorises a select on reals)
-        MPMFLOW_VECTORISE
-        for (int l = 0; l < count; ++l) selected[l] = maybe(begin + l) ? real_t(1) : real_t(0);
-        for (int l = 0; l < count; ++l)
-          if (selected[l] != 0) body(begin + l);
+        run_selected_in_block<L>(maybe, body, begin, last - begin < L ? static_cast<int>(last - begin) : L);
       });
 }
 template <class Maybe, class Body>
@@ -99,12 +106,7 @@ struct SumsWhereInBlocks {
   KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sums) const {
     constexpr int L = index_block_size;
     const index_t begin = k * L;
-    const int count = n - begin < L ? static_cast<int>(n - begin) : L;
-    real_t selected[L];  // 1 or 0 (a real: GCC vectorises a select on reals)
-    MPMFLOW_VECTORISE
-    for (int l = 0; l < count; ++l) selected[l] = maybe(begin + l) ? real_t(1) : real_t(0);
-    for (int l = 0; l < count; ++l)
-      if (selected[l] != 0) body(begin + l, sums);
+    run_selected_in_block<L>(maybe, body, begin, n - begin < L ? static_cast<int>(n - begin) : L, sums);
   }
 };
 template <class Maybe, class Body>
