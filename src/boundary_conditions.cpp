@@ -11,19 +11,6 @@
 namespace mpmflow {
 namespace {
 
-// Calls f(node, i, j) for the nodes (i, j) of a rectangle of local node indices, one thread each.
-template <class F>
-void for_nodes(const char* label, const GridGeometry& geo, const IndexRange2D& nodes, const F& f) {
-  if (nodes.empty()) return;
-  const index_t width = nodes.extent_x();
-  const index_t i0 = nodes.begin_x, j0 = nodes.begin_y;
-  Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, nodes.size()), KOKKOS_LAMBDA(const index_t k) {
-        const index_t i = i0 + k % width, j = j0 + k / width;
-        f(geo.node_index(i, j), i, j);
-      });
-}
-
 // The nodes of `line` that are nodes of the domain (not the ghost nodes beyond its corners).
 IndexRange2D within_domain(const GridSlab& slab, const IndexRange2D& line) {
   const IndexRange2D domain = slab.domain_node_space();
@@ -62,8 +49,8 @@ IndexRange2D condition_band(const GridSlab& slab, BoundaryType type, Side side) 
 }
 
 // The free-stream pressure on the outflow and far-field sides, as the gas outside acts on the
-// nodes of the side (free functions rather than private members: CUDA forbids device lambdas in
-// private members).
+// nodes of the side: the force on node (i, j) (a struct rather than a private member: CUDA forbids
+// device lambdas in private members).
 //
 // The gas outside is a continuum at the free-stream state. Its stress contributes
 //   f_i = -\int_outside sigma grad N_i dA = -p_inf n \int_side N_i ds
@@ -79,87 +66,123 @@ IndexRange2D condition_band(const GridSlab& slab, BoundaryType type, Side side) 
 // share of a full node's mass instead, a thinning side lost ever more traction and drained
 // the tunnel; with the traction whole on the particles' mass alone, nearly empty nodes threw
 // particles into the domain.)
-void apply_side_pressure(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
-                         const GasState& free_stream, const NodeFieldsView& state) {
-  const GridGeometry& geo = slab.geometry;
+struct SidePressure {
   // Per axis: whether the domain's low and high sides are pressure sides.
-  const bool left = pressure_side(side_type[left_side]), right = pressure_side(side_type[right_side]);
-  const bool bottom = pressure_side(side_type[bottom_side]), top = pressure_side(side_type[top_side]);
-  const index_t first_x = slab.local_node_x(0), last_x = slab.local_node_x(slab.global_cells_x);
-  const index_t first_y = slab.local_node_y(0), last_y = slab.local_node_y(slab.global_cells_y);
-  const real_t hx = geo.spacing_x, hy = geo.spacing_y, p_inf = free_stream.pressure, rho_inf = free_stream.density;
-  for (int s = 0; s < num_sides; ++s) {
-    if (!pressure_side(side_type[s])) continue;
-    const Side side = static_cast<Side>(s);
-    IndexRange2D line = condition_lines(slab, side_type[s], side).front();
-    // A corner node shared with an earlier pressure side (left and right come before bottom and
-    // top) is that side's: each node is handled once.
-    if (side == bottom_side || side == top_side) {
-      if (left) line.begin_x = std::max(line.begin_x, first_x + 1);
-      if (right) line.end_x = std::min(line.end_x, last_x);
+  bool left = false, right = false, bottom = false, top = false;
+  index_t first_x = 0, last_x = 0, first_y = 0, last_y = 0;  // the domain's first and last local node lines
+  real_t hx = 0, hy = 0, p_inf = 0, rho_inf = 0;
+
+  SidePressure(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type, const GasState& free_stream)
+      : left(pressure_side(side_type[left_side])),
+        right(pressure_side(side_type[right_side])),
+        bottom(pressure_side(side_type[bottom_side])),
+        top(pressure_side(side_type[top_side])),
+        first_x(slab.local_node_x(0)),
+        last_x(slab.local_node_x(slab.global_cells_x)),
+        first_y(slab.local_node_y(0)),
+        last_y(slab.local_node_y(slab.global_cells_y)),
+        hx(slab.geometry.spacing_x),
+        hy(slab.geometry.spacing_y),
+        p_inf(free_stream.pressure),
+        rho_inf(free_stream.density) {}
+
+  KOKKOS_INLINE_FUNCTION void operator()(const NodeFieldsView& state, index_t node, index_t i, index_t j) const {
+    // The node's dual cell [x_i - hx/2, x_i + hx/2] x [...]: its extent within the gas (beyond
+    // a slip wall or an inflow side there is none) and within the domain.
+    const bool at_left = i == first_x, at_right = i == last_x, at_bottom = j == first_y, at_top = j == last_y;
+    const real_t gas_x = hx - ((at_left && !left) || (at_right && !right) ? hx / 2 : real_t(0));
+    const real_t gas_y = hy - ((at_bottom && !bottom) || (at_top && !top) ? hy / 2 : real_t(0));
+    const real_t inside_x = gas_x - ((at_left && left) || (at_right && right) ? hx / 2 : real_t(0));
+    const real_t inside_y = gas_y - ((at_bottom && bottom) || (at_top && top) ? hy / 2 : real_t(0));
+    // Traction: the length of the node's dual cell along each pressure side it lies on.
+    real_t fx = state(node, GridFields::force_x), fy = state(node, GridFields::force_y);
+    if (at_left && left) fx += p_inf * inside_y;
+    if (at_right && right) fx -= p_inf * inside_y;
+    if (at_bottom && bottom) fy += p_inf * inside_x;
+    if (at_top && top) fy -= p_inf * inside_x;
+    const real_t outside_mass = rho_inf * (gas_x * gas_y - inside_x * inside_y);
+    const real_t m = state(node, GridFields::mass);
+    const real_t inertia_share = m / (m + outside_mass);
+    state(node, GridFields::force_x) = fx * inertia_share;
+    state(node, GridFields::force_y) = fy * inertia_share;
+  }
+};
+
+// The sides' rectangles of one call: each pressure side's line (a corner node shared with an
+// earlier pressure side is that side's, left and right coming before bottom and top, so that the
+// traction of both sides acts once there), then each inflow side's band, then each slip wall's.
+SideConditionBands side_condition_bands(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
+                                        bool with_pressure) {
+  SideConditionBands bands;
+  if (with_pressure) {
+    const bool left = pressure_side(side_type[left_side]), right = pressure_side(side_type[right_side]);
+    const index_t first_x = slab.local_node_x(0), last_x = slab.local_node_x(slab.global_cells_x);
+    for (int s = 0; s < num_sides; ++s) {
+      if (!pressure_side(side_type[s])) continue;
+      const Side side = static_cast<Side>(s);
+      IndexRange2D line = condition_lines(slab, side_type[s], side).front();
+      if (side == bottom_side || side == top_side) {
+        if (left) line.begin_x = std::max(line.begin_x, first_x + 1);
+        if (right) line.end_x = std::min(line.end_x, last_x);
+      }
+      bands.add(line, SideCondition::pressure, 0);
     }
-    for_nodes("side_pressure", geo, line, KOKKOS_LAMBDA(const index_t node, const index_t i, const index_t j) {
-      // The node's dual cell [x_i - hx/2, x_i + hx/2] x [...]: its extent within the gas (beyond
-      // a slip wall or an inflow side there is none) and within the domain.
-      const bool at_left = i == first_x, at_right = i == last_x, at_bottom = j == first_y, at_top = j == last_y;
-      const real_t gas_x = hx - ((at_left && !left) || (at_right && !right) ? hx / 2 : real_t(0));
-      const real_t gas_y = hy - ((at_bottom && !bottom) || (at_top && !top) ? hy / 2 : real_t(0));
-      const real_t inside_x = gas_x - ((at_left && left) || (at_right && right) ? hx / 2 : real_t(0));
-      const real_t inside_y = gas_y - ((at_bottom && bottom) || (at_top && top) ? hy / 2 : real_t(0));
-      // Traction: the length of the node's dual cell along each pressure side it lies on.
-      real_t fx = state(node, GridFields::force_x), fy = state(node, GridFields::force_y);
-      if (at_left && left) fx += p_inf * inside_y;
-      if (at_right && right) fx -= p_inf * inside_y;
-      if (at_bottom && bottom) fy += p_inf * inside_x;
-      if (at_top && top) fy -= p_inf * inside_x;
-      const real_t outside_mass = rho_inf * (gas_x * gas_y - inside_x * inside_y);
-      const real_t m = state(node, GridFields::mass);
-      const real_t inertia_share = m / (m + outside_mass);
-      state(node, GridFields::force_x) = fx * inertia_share;
-      state(node, GridFields::force_y) = fy * inertia_share;
-    });
   }
+  for (const BoundaryType type : {BoundaryType::inflow, BoundaryType::slip_wall})
+    for (int s = 0; s < num_sides; ++s)
+      if (side_type[s] == type)
+        bands.add(condition_band(slab, type, static_cast<Side>(s)),
+                  type == BoundaryType::inflow ? SideCondition::inflow : SideCondition::slip_wall,
+                  s == left_side || s == right_side ? 0 : 1);
+  return bands;
 }
 
-// Inflow sides: the node velocity is the free stream on the side's node line and the ghost lines
-// beyond it, and no force acts there.
-void apply_inflow_sides(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
-                        const GasState& free_stream, const NodeFieldsView& momentum, int column_x,
-                        const NodeFieldsView& state, bool with_force) {
-  const GridGeometry& geo = slab.geometry;
+// The sides' conditions, all in one launch (there was one a side and condition: 7 a step in a
+// tunnel with an inflow, an outflow and two slip walls). A node that two rectangles hold (the
+// corners of an inflow side and a slip wall, ghost nodes included) is the thread's of the first of
+// them, which applies each condition that holds the node in the rectangles' order, as the launches
+// one after the other did: each node has one writer, and the same bits.
+// - pressure (outflow, far field): SidePressure on the force;
+// - inflow: the node velocity is the free stream, momentum = m v_inf, and (with_force) no force;
+// - slip wall: the normal component of the momentum, and (with_force) of the force, zeroed.
+void apply_side_conditions(const GridGeometry& geo, const SideConditionBands& bands, const SidePressure& pressure,
+                           const GasState& free_stream, const NodeFieldsView& momentum, int column_x,
+                           const NodeFieldsView& state, bool with_force) {
+  const index_t total = bands.first[bands.count];
+  if (total == 0) return;
   const real_t vx = free_stream.velocity_x, vy = free_stream.velocity_y;
-  for (int s = 0; s < num_sides; ++s) {
-    if (side_type[s] != BoundaryType::inflow) continue;
-    for_nodes("inflow_nodes", geo, condition_band(slab, side_type[s], static_cast<Side>(s)),
-              KOKKOS_LAMBDA(const index_t node, index_t, index_t) {
-                const real_t m = state(node, GridFields::mass);
-                momentum(node, column_x) = m * vx;
-                momentum(node, column_x + 1) = m * vy;
-                if (with_force) {
-                  state(node, GridFields::force_x) = 0;
-                  state(node, GridFields::force_y) = 0;
-                }
-              });
-  }
-}
-
-// The normal component of the vector in columns column_x, column_x + 1 of `fields` zeroed on the
-// slip walls' nodes, and of the one from second_column_x where that is not negative (the momentum
-// and the force in one launch a wall).
-void apply_slip_walls(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
-                      const NodeFieldsView& fields, int column_x, int second_column_x = -1) {
-  const GridGeometry& geo = slab.geometry;
-  for (int s = 0; s < num_sides; ++s) {
-    if (side_type[s] != BoundaryType::slip_wall) continue;
-    const int normal = s == left_side || s == right_side ? 0 : 1;
-    const int normal_column = column_x + normal;
-    const int second_normal_column = second_column_x < 0 ? -1 : second_column_x + normal;
-    for_nodes("slip_wall", geo, condition_band(slab, side_type[s], static_cast<Side>(s)),
-              KOKKOS_LAMBDA(const index_t node, index_t, index_t) {
-                fields(node, normal_column) = 0;
-                if (second_normal_column >= 0) fields(node, second_normal_column) = 0;
-              });
-  }
+  Kokkos::parallel_for(
+      "side_conditions", Kokkos::RangePolicy<ExecutionSpace>(0, total), KOKKOS_LAMBDA(const index_t k) {
+        int b = 0;
+        while (k >= bands.first[b + 1]) ++b;
+        const index_t width = bands.end_x[b] - bands.begin_x[b], along = k - bands.first[b];
+        const index_t i = bands.begin_x[b] + along % width, j = bands.begin_y[b] + along / width;
+        for (int earlier = 0; earlier < b; ++earlier)
+          if (bands.holds(earlier, i, j)) return;  // that rectangle's thread takes the node
+        const index_t node = geo.node_index(i, j);
+        for (int c = b; c < bands.count; ++c) {
+          if (!bands.holds(c, i, j)) continue;
+          switch (bands.condition[c]) {
+            case SideCondition::pressure:
+              pressure(state, node, i, j);
+              break;
+            case SideCondition::inflow: {
+              const real_t m = state(node, GridFields::mass);
+              momentum(node, column_x) = m * vx;
+              momentum(node, column_x + 1) = m * vy;
+              if (with_force) {
+                state(node, GridFields::force_x) = 0;
+                state(node, GridFields::force_y) = 0;
+              }
+              break;
+            }
+            case SideCondition::slip_wall:
+              momentum(node, column_x + bands.normal_axis[c]) = 0;
+              if (with_force) state(node, GridFields::force_x + bands.normal_axis[c]) = 0;
+              break;
+          }
+        }
+      });
 }
 
 // On the nodes inside an obstacle the whole normal component goes, as on the domain's slip walls:
@@ -233,25 +256,38 @@ void add_obstacle_forces(const ObstacleGrid& obstacles, const NodeFieldsView& st
 
 }  // namespace
 
+void SideConditionBands::add(const IndexRange2D& band, SideCondition c, int axis) {
+  if (band.empty()) return;
+  begin_x[count] = band.begin_x;
+  end_x[count] = band.end_x;
+  begin_y[count] = band.begin_y;
+  end_y[count] = band.end_y;
+  condition[count] = c;
+  normal_axis[count] = axis;
+  first[count + 1] = first[count] + band.size();
+  ++count;
+}
+
 GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const GridSlab& slab,
                                                const ObstacleGrid& obstacles)
     : slab_(slab),
       side_type_(config.boundaries.side_types()),
       free_stream_(config.boundaries.free_stream),
-      obstacles_(obstacles) {}
+      obstacles_(obstacles),
+      bands_with_pressure_(side_condition_bands(slab, side_type_, /*with_pressure=*/true)),
+      bands_without_pressure_(side_condition_bands(slab, side_type_, /*with_pressure=*/false)) {}
 
 void GridBoundaryConditions::apply_to_momentum_and_force(const NodeFieldsView& state, ObstacleForces* forces) const {
-  apply_side_pressure(slab_, side_type_, free_stream_, state);
-  apply_inflow_sides(slab_, side_type_, free_stream_, state, GridFields::momentum_x, state, /*with_force=*/true);
-  apply_slip_walls(slab_, side_type_, state, GridFields::momentum_x, GridFields::force_x);
+  apply_side_conditions(slab_.geometry, bands_with_pressure_, SidePressure(slab_, side_type_, free_stream_),
+                        free_stream_, state, GridFields::momentum_x, state, /*with_force=*/true);
   if (forces) add_obstacle_forces(obstacles_, state, *forces);
   remove_normal_component(obstacles_, state, GridFields::momentum_x, GridFields::force_x);
 }
 
 void GridBoundaryConditions::apply_to_momentum(const NodeFieldsView& momentum, int column_x,
                                                const NodeFieldsView& state) const {
-  apply_inflow_sides(slab_, side_type_, free_stream_, momentum, column_x, state, /*with_force=*/false);
-  apply_slip_walls(slab_, side_type_, momentum, column_x);
+  apply_side_conditions(slab_.geometry, bands_without_pressure_, SidePressure(slab_, side_type_, free_stream_),
+                        free_stream_, momentum, column_x, state, /*with_force=*/false);
   remove_normal_component(obstacles_, momentum, column_x);
 }
 

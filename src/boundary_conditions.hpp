@@ -68,6 +68,25 @@ struct ObstacleForces {
   std::vector<double> x, y;
 };
 
+// The sides' conditions of one call (GridBoundaryConditions), in one launch: at most one rectangle
+// of local node indices a side (its node line and the ghost lines beyond; a pressure side's line
+// less a corner an earlier pressure side holds), pressure sides first, then inflow sides, then slip
+// walls, the order a node under two of them takes them in. Rectangle b holds the launch's indices
+// first[b] to first[b + 1] - 1.
+enum class SideCondition : int { pressure, inflow, slip_wall };
+struct SideConditionBands {
+  int count = 0;
+  Kokkos::Array<index_t, num_sides> begin_x = {}, end_x = {}, begin_y = {}, end_y = {};
+  Kokkos::Array<index_t, num_sides + 1> first = {};
+  Kokkos::Array<SideCondition, num_sides> condition = {};
+  Kokkos::Array<int, num_sides> normal_axis = {};  // a slip wall's: 0 (left, right) or 1 (bottom, top)
+
+  void add(const IndexRange2D& band, SideCondition c, int axis);
+  KOKKOS_INLINE_FUNCTION bool holds(int b, index_t i, index_t j) const {
+    return i >= begin_x[b] && i < end_x[b] && j >= begin_y[b] && j < end_y[b];
+  }
+};
+
 class GridBoundaryConditions {
  public:
   GridBoundaryConditions() = default;
@@ -88,6 +107,8 @@ class GridBoundaryConditions {
   std::array<BoundaryType, num_sides> side_type_ = {};
   GasState free_stream_;
   ObstacleGrid obstacles_;
+  // The sides' rectangles for step 4 (with the pressure sides) and for step 9 (without).
+  SideConditionBands bands_with_pressure_, bands_without_pressure_;
 };
 
 // A particle's cell, which the next step's kernels start from: its local cell, or left_the_domain

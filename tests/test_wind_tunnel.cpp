@@ -752,6 +752,73 @@ TEST(GridConditions, ChangeOnlyTheNodesTheEnergyBudgetSumsOver) {
   }
 }
 
+// A node under two sides' conditions takes both, in the order pressure sides, inflow sides, slip
+// walls: in the corners of an inflow side and a slip wall (ghost nodes included) the free stream's
+// momentum along the wall and none across it; at the inflow side's end on a far-field side the
+// inflow's zero force, not the traction; on the slip wall at the outflow side the traction along
+// it and no force across it. The free stream crosses the slip wall (velocity [3, 1]), so that the
+// inflow's momentum across it is not zero already. The tunnel whole and cut into slabs.
+TEST(GridConditions, ANodeUnderTwoSidesTakesBothConditionsInTheSidesOrder) {
+  const CaseConfig config = tunnel_config(
+      R"(, "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"}, "bottom": {"type": "slip_wall"},
+          "top": {"type": "far_field"}}, "free_stream": {"density": 1.4, "pressure": 1, "velocity": [3, 1]})");
+  const std::vector<GridSlab> slabs = {make_grid_slab(config.domain, 0, 0, 40), make_grid_slab(config.domain, 0, 0, 19),
+                                       make_grid_slab(config.domain, 0, 19, 40), make_grid_slab(config.domain, 1, 0, 9),
+                                       make_grid_slab(config.domain, 1, 9, 20)};
+  const index_t last_i = config.domain.cells_x, last_j = config.domain.cells_y;
+  int corners_seen = 0;
+  for (const GridSlab& slab : slabs) {
+    const SlabState slab_state(config, slab);
+    const NodeFieldsView state = slab_state.fields().state;
+    const auto initial = Kokkos::create_mirror(state);
+    for (size_t node = 0; node < state.extent(0); ++node)
+      for (size_t c = 0; c < state.extent(1); ++c)
+        initial(node, c) = c == GridFields::mass ? 1 + 0.001 * (node % 7) : 0.3 + 0.01 * ((node * (c + 3)) % 11);
+    const GridBoundaryConditions& conditions = slab_state.grid_boundaries();
+    for (const bool with_force : {true, false}) {
+      Kokkos::deep_copy(state, initial);
+      if (with_force)
+        conditions.apply_to_momentum_and_force(state);
+      else
+        conditions.apply_to_momentum(state, GridFields::momentum_x, state);
+      const auto after = Kokkos::create_mirror(state);
+      Kokkos::deep_copy(after, state);
+      for (index_t j = 0; j < slab.geometry.nodes_y; ++j)
+        for (index_t i = 0; i < slab.geometry.nodes_x; ++i) {
+          const index_t node = slab.geometry.node_index(i, j);
+          const index_t gi = i - slab.local_node_x(0), gj = j - slab.local_node_y(0);
+          const double m = initial(node, GridFields::mass);
+          const auto value = [&](int column) { return after(node, column); };
+          const auto was = [&](int column) { return initial(node, column); };
+          const std::string where = "global node " + std::to_string(gi) + ", " + std::to_string(gj) +
+                                    (with_force ? ", momentum and force" : ", momentum");
+          const bool inflow = gi <= 0, slip = gj <= 0;
+          if (inflow) {
+            EXPECT_DOUBLE_EQ(value(GridFields::momentum_x), 3 * m) << where;
+            EXPECT_DOUBLE_EQ(value(GridFields::momentum_y), slip ? 0.0 : m) << where;
+            if (with_force) {
+              EXPECT_EQ(value(GridFields::force_x), 0.0) << where;  // at gj = last_j: after the traction
+              EXPECT_EQ(value(GridFields::force_y), 0.0) << where;
+            }
+            corners_seen += slip || gj == last_j;
+          } else if (slip) {
+            EXPECT_EQ(value(GridFields::momentum_y), 0.0) << where;
+            EXPECT_EQ(value(GridFields::momentum_x), was(GridFields::momentum_x)) << where;
+            if (with_force) {
+              EXPECT_EQ(value(GridFields::force_y), 0.0) << where;
+              // The outflow's traction on its line (gi = last_i, gj = 0) acts along the wall.
+              if (gi == last_i && gj == 0)
+                EXPECT_NE(value(GridFields::force_x), was(GridFields::force_x)) << where;
+              else
+                EXPECT_EQ(value(GridFields::force_x), was(GridFields::force_x)) << where;
+            }
+          }
+        }
+    }
+  }
+  EXPECT_GT(corners_seen, 0);
+}
+
 // On the nodes inside an obstacle the grid conditions leave no normal momentum or force, outward
 // as well as inward (the paper's eqs. 21-22 keep the outward part), the tangential parts as they
 // were; the force on the body is the normal force removed, summed over its nodes.
