@@ -223,11 +223,16 @@ struct ObstacleForceSums {
   IndexView nodes, of_node;
   NodeFieldsView normals, state;
   KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sums) const {
+    // A node another slab owns (-1) is that slab's rank's to count. (Added at 2 x -1, its terms
+    // went outside the totals: on a GPU, where Kokkos lays the threads' totals side by side in
+    // shared memory, into the previous thread's.)
+    const index_t o = of_node(k);
+    if (o < 0) return;
     const index_t node = nodes(k);
     const real_t nx = normals(k, 0), ny = normals(k, 1);
     const real_t f_n = state(node, GridFields::force_x) * nx + state(node, GridFields::force_y) * ny;
-    sums[2 * of_node(k)] += f_n * nx;
-    sums[2 * of_node(k) + 1] += f_n * ny;
+    sums[2 * o] += f_n * nx;
+    sums[2 * o + 1] += f_n * ny;
   }
 };
 

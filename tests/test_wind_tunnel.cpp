@@ -864,6 +864,67 @@ TEST(GridConditions, ObstacleNodesKeepNoNormalMomentumOrForceAndTheBodyTakesTheF
   EXPECT_NEAR(forces.y[0], removed_y, 1e-12);
 }
 
+// A slab cut through an obstacle holds the obstacle's nodes on the far side of the cut as ghost
+// nodes, whose force another slab's rank counts: each slab's force on the body is the normal force
+// removed on the nodes it owns (no more, and nothing written for the others), and the slabs' forces
+// add up to the whole tunnel's. Cut along x and along y, each slab with the same node values as the
+// whole.
+TEST(GridConditions, ASlabCutThroughAnObstacleCountsTheForceOnTheNodesItOwns) {
+  const CaseConfig config = tunnel_config(R"(, "obstacles": [{"type": "circle", "centre": [2, 1], "radius": 0.25}])");
+  const auto force_on_body = [&](const GridSlab& slab, double removed[2]) {
+    const SlabState slab_state(config, slab);
+    const NodeFieldsView state = slab_state.fields().state;
+    const auto initial = Kokkos::create_mirror(state);
+    for (index_t j = 0; j < slab.geometry.nodes_y; ++j)
+      for (index_t i = 0; i < slab.geometry.nodes_x; ++i) {
+        const double global_node = double(i - slab.local_node_x(0) + 100 * (j - slab.local_node_y(0)));
+        const index_t node = slab.geometry.node_index(i, j);
+        for (size_t c = 0; c < state.extent(1); ++c)
+          initial(node, c) = c == GridFields::mass ? 1.0 : std::sin(1.7 * global_node + 0.9 * double(c));
+      }
+    Kokkos::deep_copy(state, initial);
+    const ObstacleGrid& obstacles = slab_state.obstacles();
+    const auto nodes = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), obstacles.obstacle_nodes);
+    const auto normals = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), obstacles.obstacle_normals);
+    const IndexRange2D owned = slab.index_space(Ownership::owned, Entity::node, Indexing::local);
+    removed[0] = removed[1] = 0;
+    int ghosts = 0;
+    for (index_t k = 0; k < obstacles.num_obstacle_nodes(); ++k) {
+      const index_t i = nodes(k) % slab.geometry.nodes_x, j = nodes(k) / slab.geometry.nodes_x;
+      if (i < owned.begin_x || i >= owned.end_x || j < owned.begin_y || j >= owned.end_y) {
+        ++ghosts;
+        continue;
+      }
+      const double nx = normals(k, 0), ny = normals(k, 1);
+      const double f_n = initial(nodes(k), GridFields::force_x) * nx + initial(nodes(k), GridFields::force_y) * ny;
+      removed[0] += f_n * nx;
+      removed[1] += f_n * ny;
+    }
+    ObstacleForces forces;
+    slab_state.grid_boundaries().apply_to_momentum_and_force(state, &forces);
+    EXPECT_EQ(forces.x.size(), 1u);
+    return std::make_tuple(forces.x.at(0), forces.y.at(0), ghosts);
+  };
+  double whole_removed[2];
+  const auto whole = force_on_body(make_grid_slab(config.domain, 0, 0, 40), whole_removed);
+  EXPECT_EQ(std::get<2>(whole), 0);
+  EXPECT_NEAR(std::get<0>(whole), whole_removed[0], 1e-12);
+  EXPECT_NEAR(std::get<1>(whole), whole_removed[1], 1e-12);
+  for (const std::array<index_t, 3>& cut : {std::array<index_t, 3>{0, 19, 40}, std::array<index_t, 3>{1, 9, 20}}) {
+    const int axis = static_cast<int>(cut[0]);
+    double removed_low[2], removed_high[2];
+    const auto low = force_on_body(make_grid_slab(config.domain, axis, 0, cut[1]), removed_low);
+    const auto high = force_on_body(make_grid_slab(config.domain, axis, cut[1], cut[2]), removed_high);
+    EXPECT_GT(std::get<2>(low) + std::get<2>(high), 0) << "axis " << axis;  // the cut goes through the body
+    EXPECT_NEAR(std::get<0>(low), removed_low[0], 1e-12) << "axis " << axis;
+    EXPECT_NEAR(std::get<1>(low), removed_low[1], 1e-12) << "axis " << axis;
+    EXPECT_NEAR(std::get<0>(high), removed_high[0], 1e-12) << "axis " << axis;
+    EXPECT_NEAR(std::get<1>(high), removed_high[1], 1e-12) << "axis " << axis;
+    EXPECT_NEAR(std::get<0>(low) + std::get<0>(high), std::get<0>(whole), 1e-12) << "axis " << axis;
+    EXPECT_NEAR(std::get<1>(low) + std::get<1>(high), std::get<1>(whole), 1e-12) << "axis " << axis;
+  }
+}
+
 // The particle rules after a move (Algorithm 1, step 11), with two obstacles: a particle that moved
 // into one with an inward normal velocity loses that velocity, and the body it entered takes its
 // impulse over dt (the other body none of it); one moving out of an obstacle is put back on its
