@@ -223,8 +223,8 @@ struct ObstacleForceSums {
   IndexView nodes, of_node;
   NodeFieldsView normals, state;
   KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sums) const {
-    // A node another slab owns (-1) is that slab's rank's to count. (Added at 2 x -1, its terms
-    // went outside the totals: on a GPU, where Kokkos lays the threads' totals side by side in
+    // A node another slab owns (-1) is that slab's rank's to count. (Its terms at 2 x -1 would
+    // fall outside the totals: on a GPU, where Kokkos lays the threads' totals side by side in
     // shared memory, into the previous thread's.)
     const index_t o = of_node(k);
     if (o < 0) return;

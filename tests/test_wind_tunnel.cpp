@@ -866,9 +866,10 @@ TEST(GridConditions, ObstacleNodesKeepNoNormalMomentumOrForceAndTheBodyTakesTheF
 
 // A slab cut through an obstacle holds the obstacle's nodes on the far side of the cut as ghost
 // nodes, whose force another slab's rank counts: each slab's force on the body is the normal force
-// removed on the nodes it owns (no more, and nothing written for the others), and the slabs' forces
-// add up to the whole tunnel's. Cut along x and along y, each slab with the same node values as the
-// whole.
+// removed on the nodes it owns, no more, and the slabs' forces add up to the whole tunnel's. Cut
+// along x and along y, each slab with the same node values as the whole. (Where the terms of the
+// others go is not seen here: added outside the reduction's totals, as they were before 28044b0,
+// they changed nothing a CPU reads back.)
 TEST(GridConditions, ASlabCutThroughAnObstacleCountsTheForceOnTheNodesItOwns) {
   const CaseConfig config = tunnel_config(R"(, "obstacles": [{"type": "circle", "centre": [2, 1], "radius": 0.25}])");
   const auto force_on_body = [&](const GridSlab& slab, double removed[2]) {
