@@ -8,7 +8,8 @@ target_compile_definitions(mpmflow_dependencies INTERFACE OMPI_SKIP_MPICXX MPICH
 # --- Kokkos: a source tree given at configure time, else an installed one (Kokkos_ROOT) --------
 if(MPMFLOW_KOKKOS_SOURCE_DIR)
   message(STATUS "mpmflow: building Kokkos from ${MPMFLOW_KOKKOS_SOURCE_DIR}")
-  add_subdirectory(${MPMFLOW_KOKKOS_SOURCE_DIR} ${CMAKE_BINARY_DIR}/kokkos EXCLUDE_FROM_ALL)
+  set(MPMFLOW_KOKKOS_BINARY_DIR ${CMAKE_BINARY_DIR}/kokkos)  # (installed with the project: MpmflowInstall)
+  add_subdirectory(${MPMFLOW_KOKKOS_SOURCE_DIR} ${MPMFLOW_KOKKOS_BINARY_DIR} EXCLUDE_FROM_ALL)
 else()
   find_package(Kokkos REQUIRED)
 endif()
@@ -35,7 +36,8 @@ endif()
 
 # --- Kokkos Kernels (BLAS-1 diagnostics); optional so a minimal build needs Kokkos alone -----
 if(MPMFLOW_KOKKOS_KERNELS_SOURCE_DIR)
-  add_subdirectory(${MPMFLOW_KOKKOS_KERNELS_SOURCE_DIR} ${CMAKE_BINARY_DIR}/kokkos-kernels EXCLUDE_FROM_ALL)
+  set(MPMFLOW_KOKKOS_KERNELS_BINARY_DIR ${CMAKE_BINARY_DIR}/kokkos-kernels)
+  add_subdirectory(${MPMFLOW_KOKKOS_KERNELS_SOURCE_DIR} ${MPMFLOW_KOKKOS_KERNELS_BINARY_DIR} EXCLUDE_FROM_ALL)
   set(KokkosKernels_FOUND ON)
 else()
   find_package(KokkosKernels QUIET)

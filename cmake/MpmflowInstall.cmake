@@ -23,6 +23,16 @@ install(PROGRAMS ${PROJECT_SOURCE_DIR}/tools/mpmflow_plot.py ${PROJECT_SOURCE_DI
                  ${PROJECT_SOURCE_DIR}/tools/naca4.py
         DESTINATION ${CMAKE_INSTALL_DATADIR}/mpmflow/tools)
 
+# A Kokkos (and Kokkos Kernels) built with the project from a source tree goes into the prefix
+# too: the installed core links it, and the package configuration finds it there. (Its build
+# directory is EXCLUDE_FROM_ALL, which leaves its install rules out of the project's: they are run
+# here.)
+foreach(mpmflow_in_tree_dir IN ITEMS "${MPMFLOW_KOKKOS_BINARY_DIR}" "${MPMFLOW_KOKKOS_KERNELS_BINARY_DIR}")
+  if(mpmflow_in_tree_dir)
+    install(CODE "include(\"${mpmflow_in_tree_dir}/cmake_install.cmake\")")
+  endif()
+endforeach()
+
 set(MPMFLOW_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/mpmflow)
 install(EXPORT mpmflowTargets NAMESPACE mpmflow:: DESTINATION ${MPMFLOW_CMAKE_DIR})
 # mpmflow_dependencies is exported as mpmflow::mpmflow_dependencies; mpmflow::core is the library.
