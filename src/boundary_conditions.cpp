@@ -155,13 +155,14 @@ void apply_side_conditions(const GridGeometry& geo, const SideConditionBands& ba
       "side_conditions", Kokkos::RangePolicy<ExecutionSpace>(0, total), KOKKOS_LAMBDA(const index_t k) {
         int b = 0;
         while (k >= bands.first[b + 1]) ++b;
-        const index_t width = bands.end_x[b] - bands.begin_x[b], along = k - bands.first[b];
-        const index_t i = bands.begin_x[b] + along % width, j = bands.begin_y[b] + along / width;
+        const IndexRange2D& band = bands.band[b];
+        const index_t width = band.extent_x(), along = k - bands.first[b];
+        const index_t i = band.begin_x + along % width, j = band.begin_y + along / width;
         for (int earlier = 0; earlier < b; ++earlier)
-          if (bands.holds(earlier, i, j)) return;  // that rectangle's thread takes the node
+          if (bands.band[earlier].contains(i, j)) return;  // that rectangle's thread takes the node
         const index_t node = geo.node_index(i, j);
         for (int c = b; c < bands.count; ++c) {
-          if (!bands.holds(c, i, j)) continue;
+          if (!bands.band[c].contains(i, j)) continue;
           switch (bands.condition[c]) {
             case SideCondition::pressure:
               pressure(state, node, i, j);
@@ -261,15 +262,12 @@ void add_obstacle_forces(const ObstacleGrid& obstacles, const NodeFieldsView& st
 
 }  // namespace
 
-void SideConditionBands::add(const IndexRange2D& band, SideCondition c, int axis) {
-  if (band.empty()) return;
-  begin_x[count] = band.begin_x;
-  end_x[count] = band.end_x;
-  begin_y[count] = band.begin_y;
-  end_y[count] = band.end_y;
+void SideConditionBands::add(const IndexRange2D& nodes, SideCondition c, int axis) {
+  if (nodes.empty()) return;
+  band[count] = nodes;
   condition[count] = c;
   normal_axis[count] = axis;
-  first[count + 1] = first[count] + band.size();
+  first[count + 1] = first[count] + nodes.size();
   ++count;
 }
 
@@ -300,8 +298,7 @@ IndexView GridBoundaryConditions::conditioned_nodes(const IndexRange2D& within) 
   const GridGeometry& geo = slab_.geometry;
   std::vector<index_t> nodes;
   const auto add = [&](index_t i, index_t j) {
-    if (i >= within.begin_x && i < within.end_x && j >= within.begin_y && j < within.end_y)
-      nodes.push_back(geo.node_index(i, j));
+    if (within.contains(i, j)) nodes.push_back(geo.node_index(i, j));
   };
   for (int s = 0; s < num_sides; ++s)
     for (const IndexRange2D& line : condition_lines(slab_, side_type_[s], static_cast<Side>(s)))

@@ -76,15 +76,12 @@ struct ObstacleForces {
 enum class SideCondition : int { pressure, inflow, slip_wall };
 struct SideConditionBands {
   int count = 0;
-  Kokkos::Array<index_t, num_sides> begin_x = {}, end_x = {}, begin_y = {}, end_y = {};
+  Kokkos::Array<IndexRange2D, num_sides> band = {};
   Kokkos::Array<index_t, num_sides + 1> first = {};
   Kokkos::Array<SideCondition, num_sides> condition = {};
   Kokkos::Array<int, num_sides> normal_axis = {};  // a slip wall's: 0 (left, right) or 1 (bottom, top)
 
-  void add(const IndexRange2D& band, SideCondition c, int axis);
-  KOKKOS_INLINE_FUNCTION bool holds(int b, index_t i, index_t j) const {
-    return i >= begin_x[b] && i < end_x[b] && j >= begin_y[b] && j < end_y[b];
-  }
+  void add(const IndexRange2D& nodes, SideCondition c, int axis);
 };
 
 class GridBoundaryConditions {

@@ -287,8 +287,7 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   auto of_node_host = Kokkos::create_mirror_view(grid.obstacle_of_node);
   for (size_t k = 0; k < nodes.size(); ++k) {
     const index_t i = nodes[k] % geo.nodes_x, j = nodes[k] / geo.nodes_x;
-    const bool owned_here = i >= owned.begin_x && i < owned.end_x && j >= owned.begin_y && j < owned.end_y;
-    of_node_host(k) = owned_here ? host(geo.node_x(i), geo.node_y(j)).obstacle : -1;
+    of_node_host(k) = owned.contains(i, j) ? host(geo.node_x(i), geo.node_y(j)).obstacle : -1;
   }
   Kokkos::deep_copy(grid.obstacle_of_node, of_node_host);
 

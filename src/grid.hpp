@@ -15,15 +15,19 @@ namespace mpmflow {
 // The sides of the domain.
 enum Side : int { left_side = 0, right_side, bottom_side, top_side, num_sides };
 
-// Index rectangle [begin_x, end_x) x [begin_y, end_y) of nodes or cells.
+// Index rectangle [begin_x, end_x) x [begin_y, end_y) of nodes or cells (also in device code: the
+// halo exchange's and the side conditions' kernels walk such rectangles).
 struct IndexRange2D {
   index_t begin_x = 0, end_x = 0;
   index_t begin_y = 0, end_y = 0;
 
-  index_t extent_x() const { return end_x > begin_x ? end_x - begin_x : 0; }
-  index_t extent_y() const { return end_y > begin_y ? end_y - begin_y : 0; }
-  index_t size() const { return extent_x() * extent_y(); }
-  bool empty() const { return size() == 0; }
+  KOKKOS_INLINE_FUNCTION index_t extent_x() const { return end_x > begin_x ? end_x - begin_x : 0; }
+  KOKKOS_INLINE_FUNCTION index_t extent_y() const { return end_y > begin_y ? end_y - begin_y : 0; }
+  KOKKOS_INLINE_FUNCTION index_t size() const { return extent_x() * extent_y(); }
+  KOKKOS_INLINE_FUNCTION bool empty() const { return size() == 0; }
+  KOKKOS_INLINE_FUNCTION bool contains(index_t i, index_t j) const {
+    return i >= begin_x && i < end_x && j >= begin_y && j < end_y;
+  }
   index_t begin(int axis) const { return axis == 0 ? begin_x : begin_y; }
   index_t end(int axis) const { return axis == 0 ? end_x : end_y; }
   bool operator==(const IndexRange2D& o) const {

@@ -31,7 +31,7 @@ CaseConfig config_for(int cells_x, int cells_y, int axis) {
 bool holds(const DomainConfig& domain, const SlabDecomposition& d, int r, index_t gi, index_t gj) {
   const IndexRange2D nodes =
       make_grid_slab(domain, d.axis, d.begin(r), d.end(r)).index_space(Ownership::ghosted, Entity::node, Indexing::global);
-  return gi >= nodes.begin_x && gi < nodes.end_x && gj >= nodes.begin_y && gj < nodes.end_y;
+  return nodes.contains(gi, gj);
 }
 
 // What rank r contributes to component c of global node (gi, gj): whole numbers, so that every

@@ -895,7 +895,7 @@ TEST(GridConditions, ASlabCutThroughAnObstacleCountsTheForceOnTheNodesItOwns) {
     int ghosts = 0;
     for (index_t k = 0; k < obstacles.num_obstacle_nodes(); ++k) {
       const index_t i = nodes(k) % slab.geometry.nodes_x, j = nodes(k) / slab.geometry.nodes_x;
-      if (i < owned.begin_x || i >= owned.end_x || j < owned.begin_y || j >= owned.end_y) {
+      if (!owned.contains(i, j)) {
         ++ghosts;
         continue;
       }
