@@ -37,7 +37,7 @@ void for_each_index_one_by_one(const char* label, index_t n, const Body& body) {
 }
 template <class Body>
 void for_each_index_in_lanes(const char* label, index_t n, const Body& body) {
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+  if constexpr (cpu_code_paths)
     for_each_index_in_blocks(label, n, body);
   else
     for_each_index_one_by_one(label, n, body);
@@ -84,7 +84,7 @@ void for_each_index_where_one_by_one(const char* label, index_t first, index_t l
 }
 template <class Maybe, class Body>
 void for_each_index_where(const char* label, index_t first, index_t last, const Maybe& maybe, const Body& body) {
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+  if constexpr (cpu_code_paths)
     for_each_index_where_in_blocks(label, first, last, maybe, body);
   else
     for_each_index_where_one_by_one(label, first, last, maybe, body);
@@ -144,7 +144,7 @@ void sums_over_indices_where_one_by_one(const char* label, index_t n, int count,
 template <class Maybe, class Body>
 void sums_over_indices_where(const char* label, index_t n, int count, const Maybe& maybe, const Body& body,
                              double* totals) {
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+  if constexpr (cpu_code_paths)
     sums_over_indices_where_in_blocks(label, n, count, maybe, body, totals);
   else
     sums_over_indices_where_one_by_one(label, n, count, maybe, body, totals);
@@ -186,7 +186,7 @@ real_t largest_over_indices_one_by_one(const char* label, index_t n, real_t nan_
 }
 template <class ValueOf>
 real_t largest_over_indices(const char* label, index_t n, real_t nan_counts_as, const ValueOf& value_of) {
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+  if constexpr (cpu_code_paths)
     return largest_over_indices_in_blocks(label, n, nan_counts_as, value_of);
   else
     return largest_over_indices_one_by_one(label, n, nan_counts_as, value_of);

@@ -90,7 +90,7 @@ IndexView select_indices_in_parts(const char* label, index_t first, index_t last
 
 template <class Predicate>
 IndexView select_indices(const char* label, index_t first, index_t last, const Predicate& keep, IndexView& buffer) {
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+  if constexpr (cpu_code_paths)
     return select_indices_in_parts(label, first, last, keep, buffer);
   else
     return select_indices_by_scan(label, first, last, keep, buffer);

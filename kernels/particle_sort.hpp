@@ -59,7 +59,7 @@ class CellOrder {
   using KeyView = Kokkos::View<std::int64_t*, DeviceType>;
   enum class Method { counting_sort, bin_sort };
   static constexpr Method default_method =
-      std::is_same<MemorySpace, Kokkos::HostSpace>::value ? Method::counting_sort : Method::bin_sort;
+      cpu_code_paths ? Method::counting_sort : Method::bin_sort;
 
   explicit CellOrder(Method method = default_method) : method_(method) {}
 

@@ -414,7 +414,7 @@ void for_each_particle_batch(const char* label, const Shape& shape, const Partic
 template <class Shape, class Body>
 void for_each_particle_stencil(const char* label, const Shape& shape, const ParticleLocations& particles,
                                const ParticleBatches& batches, const Body& body) {
-  if constexpr (std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+  if constexpr (cpu_code_paths)
     for_each_particle_batch(label, shape, particles, batches.count, body);
   else
     for_each_particle_stencil(label, shape, particles, batches.count, body);
@@ -624,7 +624,7 @@ void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& 
   const index_t row_stride = shape.grid.geometry.nodes_x;
   const IndexView offset = tiled.tile_offset, order = tiled.particle;
   // (A plain `if` on it below: nvcc allows no `if constexpr` around what a device lambda captures.)
-  constexpr bool batched = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
+  constexpr bool batched = cpu_code_paths;
   for (int colour = 0; colour < 4; ++colour) {
     const TileColour tiles(tiled.cells_x, tiled.cells_y, colour, tiled.tile);
     if (tiles.tiles() == 0) continue;
@@ -935,9 +935,9 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
                 "strips of one colour must not share a node");
   if constexpr (std::is_same<Coloured, ColouredCells>::value)
     walk_tiles_in_teams(label, shape, particles, coloured, body);
-  else if constexpr (StagesInWindow<Body>::value && std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+  else if constexpr (StagesInWindow<Body>::value && cpu_code_paths)
     walk_tiles_staged(label, shape, particles, coloured, body);
-  else if constexpr (ReadsThroughWindow<Body>::value && std::is_same<MemorySpace, Kokkos::HostSpace>::value)
+  else if constexpr (ReadsThroughWindow<Body>::value && cpu_code_paths)
     walk_tiles_through_windows(label, shape, particles, coloured, body);
   else
     walk_tiles(label, shape, particles, coloured, body);

@@ -32,6 +32,34 @@ using ExecutionSpace = Kokkos::DefaultExecutionSpace;
 using MemorySpace = ExecutionSpace::memory_space;
 using DeviceType = Kokkos::Device<ExecutionSpace, MemorySpace>;
 
+// Which code paths the kernels take: the CPUs' where the memory is the host's (vector lanes over
+// blocks of indices, tiles that threads walk, a counting sort, duplicated or coloured P2G; the
+// host reading the Views themselves), the GPUs' elsewhere (one index a thread, a team a cell, a
+// bin sort, atomics; the host reading mirrors, copied to and from the device). A build configured
+// with MPMFLOW_GPU_CODE_PATHS_ON_HOST (the `gpu-paths` preset) takes the GPUs' paths on the host,
+// and gives every host mirror memory of its own, as a GPU's has: so the code only a GPU build
+// runs is run by the tests on CPUs, and a copy between a View and its mirror that is missing
+// shows there.
+#ifdef MPMFLOW_GPU_CODE_PATHS_ON_HOST
+inline constexpr bool gpu_code_paths_on_host = true;
+#else
+inline constexpr bool gpu_code_paths_on_host = false;
+#endif
+inline constexpr bool cpu_code_paths = std::is_same<MemorySpace, Kokkos::HostSpace>::value && !gpu_code_paths_on_host;
+// Whether the host may read and write the Views themselves (else through mirrors).
+inline constexpr bool host_uses_views_directly =
+    Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible && !gpu_code_paths_on_host;
+
+// A host mirror of `view`: the View itself where the host may use it directly (Kokkos'
+// create_mirror_view), else memory of its own (create_mirror).
+template <class ViewType>
+typename ViewType::HostMirror host_mirror(const ViewType& view) {
+  if constexpr (gpu_code_paths_on_host)
+    return Kokkos::create_mirror(view);
+  else
+    return Kokkos::create_mirror_view(view);
+}
+
 // Node and particle indices. 32 bits address 2^31 particles per rank, far beyond one GPU's memory.
 using index_t = int;
 using particle_id_t = std::int64_t;
@@ -54,14 +82,14 @@ void fill_in_order(const ViewType& view, const typename ViewType::const_value_ty
 // A list of indices made on the host (nodes, particles), as a View of the execution space.
 inline IndexView to_device_indices(const char* label, const std::vector<index_t>& host) {
   IndexView device(std::string(label), host.size());
-  const auto mirror = Kokkos::create_mirror_view(device);
+  const auto mirror = host_mirror(device);
   std::copy(host.begin(), host.end(), mirror.data());
   Kokkos::deep_copy(device, mirror);
   return device;
 }
 
 // A View kept from call to call for work done every step (a migration's buffers, splitting's new
-// ids), with its host mirror (the View itself where the memory space is the host's): on a GPU an
+// ids), with its host mirror (host_mirror: the View itself where the host may use it): on a GPU an
 // allocation costs more than the kernels of such a step, and a free may wait for the device.
 // hold(n) makes it again where it has fewer than n entries, or where n is under a quarter of them
 // (after a rebalancing moved many particles, the steps' few do not keep that memory for the rest
@@ -75,7 +103,7 @@ struct KeptBuffer {
     const size_t have = device.extent(0);
     if (have >= n && have <= 4 * n + 1024) return;
     device = ViewType(Kokkos::view_alloc(std::string(label), Kokkos::WithoutInitializing), n + n / 4);
-    host = Kokkos::create_mirror_view(device);
+    host = host_mirror(device);
   }
   ViewType part(size_t n) const { return Kokkos::subview(device, std::make_pair(size_t(0), n)); }
   typename ViewType::HostMirror host_part(size_t n) const {

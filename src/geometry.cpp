@@ -212,7 +212,7 @@ RealView node_gas_volumes(const HostObstacleSet& obstacles, const std::vector<re
   };
   constexpr int samples = 32;  // per axis over the hat's two cells
   RealView volume("node_gas_volume", geo.num_nodes());
-  auto host = Kokkos::create_mirror_view(volume);
+  auto host = host_mirror(volume);
   for (index_t j = 0; j < geo.nodes_y; ++j)
     for (index_t i = 0; i < geo.nodes_x; ++i) {
       const index_t gx = i + slab.node_offset_x, gy = j + slab.node_offset_y, node = geo.node_index(i, j);
@@ -270,8 +270,8 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   }
   grid.obstacle_nodes = IndexView("obstacle_nodes", nodes.size());
   grid.obstacle_normals = NodeFieldsView("obstacle_normals", nodes.size(), 2);
-  auto nodes_host = Kokkos::create_mirror_view(grid.obstacle_nodes);
-  auto normals_host = Kokkos::create_mirror_view(grid.obstacle_normals);
+  auto nodes_host = host_mirror(grid.obstacle_nodes);
+  auto normals_host = host_mirror(grid.obstacle_normals);
   for (size_t k = 0; k < nodes.size(); ++k) {
     nodes_host(k) = nodes[k];
     normals_host(k, 0) = normals_x[k];
@@ -284,7 +284,7 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   // another slab owns.
   const IndexRange2D owned = slab.index_space(Ownership::owned, Entity::node, Indexing::local);
   grid.obstacle_of_node = IndexView("obstacle_of_node", nodes.size());
-  auto of_node_host = Kokkos::create_mirror_view(grid.obstacle_of_node);
+  auto of_node_host = host_mirror(grid.obstacle_of_node);
   for (size_t k = 0; k < nodes.size(); ++k) {
     const index_t i = nodes[k] % geo.nodes_x, j = nodes[k] / geo.nodes_x;
     of_node_host(k) = owned.contains(i, j) ? host(geo.node_x(i), geo.node_y(j)).obstacle : -1;
@@ -294,7 +294,7 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   // The signed distance is 1-Lipschitz, so inside a cell it differs from a corner value by at most
   // the cell diagonal: a cell whose corners are all farther than that holds no obstacle point.
   const real_t diagonal = std::sqrt(geo.spacing_x * geo.spacing_x + geo.spacing_y * geo.spacing_y);
-  auto near_host = Kokkos::create_mirror_view(grid.cell_near_obstacle);
+  auto near_host = host_mirror(grid.cell_near_obstacle);
   for (index_t cj = 0; cj < geo.cells_y(); ++cj)
     for (index_t ci = 0; ci < geo.cells_x(); ++ci) {
       const real_t closest = std::min(std::min(node_distance[geo.node_index(ci, cj)], node_distance[geo.node_index(ci + 1, cj)]),

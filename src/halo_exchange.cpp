@@ -50,8 +50,8 @@ HaloExchange::HaloExchange(const GridSlab& slab, const ParallelContext& context,
     const size_t size = static_cast<size_t>(neighbour.nodes.size()) * max_components;
     neighbour.send = RealView(std::string(send_label), size);
     neighbour.receive = RealView(std::string(receive_label), size);
-    neighbour.send_host = Kokkos::create_mirror_view(neighbour.send);
-    neighbour.receive_host = Kokkos::create_mirror_view(neighbour.receive);
+    neighbour.send_host = host_mirror(neighbour.send);
+    neighbour.receive_host = host_mirror(neighbour.receive);
   };
   connect(lower_, -1, "halo_send_lower", "halo_receive_lower");
   connect(upper_, +1, "halo_send_upper", "halo_receive_upper");
@@ -69,7 +69,7 @@ void HaloExchange::sum_shared_nodes(const NodeFieldsView& fields, int first_comp
   Kokkos::fence();
 
   // Host staging unless MPI may read device memory (host back-ends, or GPU-aware MPI asked for).
-  const bool direct = context_.gpu_aware || Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
+  const bool direct = context_.gpu_aware || host_uses_views_directly;
   const MPI_Datatype type = sizeof(real_t) == 8 ? MPI_DOUBLE : MPI_FLOAT;
   // Tags name the direction of travel, so that a slab's two messages to one rank never mix.
   constexpr int to_upper = 1, to_lower = 2;

@@ -310,9 +310,9 @@ OpenBoundaries::OpenBoundaries(const CaseConfig& config, const GridSlab& slab)
   }
   entry_distance_.assign(static_cast<size_t>(first_cell), 0.0);
   entry_cells_ = Kokkos::View<double*, DeviceType>("entry_cells", 3 * static_cast<size_t>(first_cell));
-  entry_cells_host_ = Kokkos::create_mirror_view(entry_cells_);
+  entry_cells_host_ = host_mirror(entry_cells_);
   strip_volume_ = Kokkos::View<long long*, DeviceType>("far_field_strip_volume", first_cell);
-  strip_volume_host_ = Kokkos::create_mirror_view(strip_volume_);
+  strip_volume_host_ = host_mirror(strip_volume_);
 }
 
 void OpenBoundaries::restore(const std::vector<double>& entry_distance, const BoundaryFluxes& fluxes) {

@@ -129,7 +129,7 @@ int SlabDecomposition::owner_of_cell(index_t global_cell) const {
 SlabDecomposition::DeviceOwners SlabDecomposition::device_owners() const {
   DeviceOwners owners;
   owners.cell_begin = IndexView("slab_cell_begin", cell_begin.size());
-  auto host = Kokkos::create_mirror_view(owners.cell_begin);
+  auto host = host_mirror(owners.cell_begin);
   for (size_t r = 0; r < cell_begin.size(); ++r) host(r) = cell_begin[r];
   Kokkos::deep_copy(owners.cell_begin, host);
   owners.num_ranks = num_ranks();

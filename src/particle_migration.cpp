@@ -157,7 +157,7 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const ParticleIdView receive_ids = receive_ids_.part(arriving_count);
   {
     const bool direct =
-        context.gpu_aware || Kokkos::SpaceAccessibility<Kokkos::HostSpace, MemorySpace>::accessible;
+        context.gpu_aware || host_uses_views_directly;
     const auto send_reals_host = send_reals_.host_part(leaving_count * F);
     const auto send_ids_host = send_ids_.host_part(leaving_count);
     const auto receive_reals_host = receive_reals_.host_part(arriving_count * F);

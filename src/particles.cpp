@@ -102,7 +102,7 @@ void copy_list_to_field(const std::vector<T>& values, const FieldView& field) {
 template <class ValueOfState>
 void fill_from_initial_state(const RealView& field, const std::vector<real_t>& xs, const std::vector<real_t>& ys,
                              const InitialStateConfig& initial, const ValueOfState& value_of) {
-  const auto host = Kokkos::create_mirror_view(field);
+  const auto host = host_mirror(field);
   for (size_t k = 0; k < xs.size(); ++k) host(k) = value_of(initial_state_at(initial, xs[k], ys[k]));
   Kokkos::deep_copy(field, host);
 }

@@ -93,6 +93,7 @@ std::string describe_build(bool with_concurrency) {
       << "Kokkos " << kv / 10000 << "." << (kv / 100) % 100 << "." << kv % 100 << ", execution space "
       << ExecutionSpace::name();
   if (with_concurrency) out << ", concurrency " << ExecutionSpace().concurrency();
+  if (gpu_code_paths_on_host) out << ", the GPU build's code paths (MPMFLOW_GPU_CODE_PATHS_ON_HOST)";
   out << "\n";
 #ifdef MPMFLOW_HAVE_MPI
   out << "MPI: on";

@@ -476,7 +476,7 @@ class ScatterAccumulation {
 class ColouredAccumulation {
  public:
   using Access = DirectNodeAccess;
-  static constexpr bool by_tile = std::is_same<MemorySpace, Kokkos::HostSpace>::value;
+  static constexpr bool by_tile = cpu_code_paths;
   using Traversal = std::conditional_t<by_tile, ColouredTiles, ColouredCells>;
 
   ColouredAccumulation(GridFields& fields, const NodeFieldsView& cell_sums, ParticleOrder particle_order)
@@ -540,7 +540,7 @@ class Transfers final : public TransferKernels {
         fields_(fields),
         shape_(make_shape<Shape>(config, geometry)),
         in_doubt_count_("p2g_particles_in_doubt", 1),
-        in_doubt_count_host_(Kokkos::create_mirror_view(in_doubt_count_)),
+        in_doubt_count_host_(host_mirror(in_doubt_count_)),
         in_doubt_(in_doubt_count_) {}
 
   void p2g_mass_momentum_force(const ParticleState& pt) override {
@@ -721,7 +721,7 @@ std::unique_ptr<TransferKernels> make_transfer_kernels(const CaseConfig& config,
   // faster than duplicated, and deterministic (README, Deterministic P2G;
   // docs/performance_history.md). Else Kokkos' own rule: duplicated copies on CPUs (few threads,
   // cheap copies), atomics on GPUs (thousands of threads, copies unaffordable).
-  if (std::is_same<MemorySpace, Kokkos::HostSpace>::value) {
+  if (cpu_code_paths) {
     if (walk_keeps_threads_busy(geometry.cells_x(), geometry.cells_y(), particle_order_of(config.numerics),
                                 ExecutionSpace().concurrency()))
       return make_for_shape<ColouredAccumulation>(config, geometry, fields);

@@ -1087,7 +1087,7 @@ void expect_windows_start_on_a_node_vectors_boundary() {
   }
 }
 TEST(ColouredTiles, WindowsStartOnANodeVectorsBoundary) {
-  if (!std::is_same<MemorySpace, Kokkos::HostSpace>::value) GTEST_SKIP() << "the windows are the CPU walks'";
+  if (!cpu_code_paths) GTEST_SKIP() << "the windows are the CPU walks'";
   expect_windows_start_on_a_node_vectors_boundary<MemorySpace>();
 }
 

@@ -272,11 +272,11 @@ TEST(TimeStep, AutomaticP2GTakesTheSortedWalkWhereItKeepsTheThreadsBusy) {
     const bool busy = walk_keeps_threads_busy(slab.geometry.cells_x(), slab.geometry.cells_y(),
                                               particle_order_of(config.numerics),
                                               ExecutionSpace().concurrency());
-    const P2GStrategy expected = !std::is_same<MemorySpace, Kokkos::HostSpace>::value ? P2GStrategy::atomic
-                                 : busy                                                ? P2GStrategy::sorted
-                                                                                       : P2GStrategy::duplicated;
+    const P2GStrategy expected = !cpu_code_paths ? P2GStrategy::atomic
+                                 : busy          ? P2GStrategy::sorted
+                                                 : P2GStrategy::duplicated;
     EXPECT_EQ(transfers->strategy(), expected) << config.domain.cells_x << " x " << config.domain.cells_y;
-    if (std::is_same<MemorySpace, Kokkos::HostSpace>::value && ExecutionSpace().concurrency() <= 7)
+    if (cpu_code_paths && ExecutionSpace().concurrency() <= 7)
       EXPECT_EQ(transfers->strategy(), config.domain.cells_y > 1 ? P2GStrategy::sorted : P2GStrategy::duplicated);
   }
 }
