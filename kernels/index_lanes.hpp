@@ -11,6 +11,12 @@ namespace mpmflow {
 
 // Indices a block: 32, four AVX-512 vectors of doubles (as a stencil batch's particles).
 constexpr int index_block_size = 32;
+// The blocks that cover n indices; the indices of the block from `begin` below `end` (the last
+// block may hold fewer).
+KOKKOS_INLINE_FUNCTION index_t index_blocks(index_t n) { return (n + index_block_size - 1) / index_block_size; }
+KOKKOS_INLINE_FUNCTION int indices_in_block(index_t begin, index_t end) {
+  return end - begin < index_block_size ? static_cast<int>(end - begin) : index_block_size;
+}
 
 // Runs body(i) for i in [0, n), where body(i) writes only what belongs to i (a cell's row, a
 // particle's fields): on CPUs in blocks of index_block_size indices, each a loop marked for
@@ -27,8 +33,8 @@ template <class Body>
 void for_each_index_in_blocks(const char* label, index_t n, const Body& body) {
   constexpr int L = index_block_size;
   Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L), KOKKOS_LAMBDA(const index_t k) {
-        run_block_in_lanes<L>(body, k * L, n - k * L < L ? static_cast<int>(n - k * L) : L);
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, index_blocks(n)), KOKKOS_LAMBDA(const index_t k) {
+        run_block_in_lanes<L>(body, k * L, indices_in_block(k * L, n));
       });
 }
 template <class Body>
@@ -68,9 +74,9 @@ void for_each_index_where_in_blocks(const char* label, index_t first, index_t la
   constexpr int L = index_block_size;
   const index_t n = last - first;
   Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L), KOKKOS_LAMBDA(const index_t k) {
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, index_blocks(last - first)), KOKKOS_LAMBDA(const index_t k) {
         const index_t begin = first + k * L;
-        run_selected_in_block<L>(maybe, body, begin, last - begin < L ? static_cast<int>(last - begin) : L);
+        run_selected_in_block<L>(maybe, body, begin, indices_in_block(begin, last));
       });
 }
 template <class Maybe, class Body>
@@ -106,7 +112,7 @@ struct SumsWhereInBlocks {
   KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sums) const {
     constexpr int L = index_block_size;
     const index_t begin = k * L;
-    run_selected_in_block<L>(maybe, body, begin, n - begin < L ? static_cast<int>(n - begin) : L, sums);
+    run_selected_in_block<L>(maybe, body, begin, indices_in_block(begin, n), sums);
   }
 };
 template <class Maybe, class Body>
@@ -128,8 +134,7 @@ template <class Maybe, class Body>
 void sums_over_indices_where_in_blocks(const char* label, index_t n, int count, const Maybe& maybe, const Body& body,
                                        double* totals) {
   if (no_totals_to_sum(n, count, totals)) return;
-  constexpr int L = index_block_size;
-  Kokkos::parallel_reduce(label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L),
+  Kokkos::parallel_reduce(label, Kokkos::RangePolicy<ExecutionSpace>(0, index_blocks(n)),
                           SumsWhereInBlocks<Maybe, Body>{static_cast<unsigned>(count), n, maybe, body},
                           HostTotals(totals, static_cast<size_t>(count)));
 }
@@ -163,10 +168,10 @@ real_t largest_over_indices_in_blocks(const char* label, index_t n, real_t nan_c
   real_t largest = 0;
   constexpr int L = index_block_size;
   Kokkos::parallel_reduce(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, (n + L - 1) / L),
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, index_blocks(n)),
       KOKKOS_LAMBDA(const index_t k, real_t& local) {
         const index_t first = k * L;
-        const int count = n - first < L ? static_cast<int>(n - first) : L;
+        const int count = indices_in_block(first, n);
         real_t value[L];
         MPMFLOW_VECTORISE
         for (int l = 0; l < count; ++l) value[l] = value_of(first + l);

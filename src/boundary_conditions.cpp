@@ -156,8 +156,7 @@ void apply_side_conditions(const GridGeometry& geo, const SideConditionBands& ba
         int b = 0;
         while (k >= bands.first[b + 1]) ++b;
         const IndexRange2D& band = bands.band[b];
-        const index_t width = band.extent_x(), along = k - bands.first[b];
-        const index_t i = band.begin_x + along % width, j = band.begin_y + along / width;
+        const index_t i = band.i_of(k - bands.first[b]), j = band.j_of(k - bands.first[b]);
         for (int earlier = 0; earlier < b; ++earlier)
           if (bands.band[earlier].contains(i, j)) return;  // that rectangle's thread takes the node
         const index_t node = geo.node_index(i, j);

@@ -28,6 +28,10 @@ struct IndexRange2D {
   KOKKOS_INLINE_FUNCTION bool contains(index_t i, index_t j) const {
     return i >= begin_x && i < end_x && j >= begin_y && j < end_y;
   }
+  // The indices (i, j) of the rectangle's k-th entry, numbered row by row from (begin_x, begin_y):
+  // k = (i - begin_x) + extent_x() (j - begin_y), for k in [0, size()).
+  KOKKOS_INLINE_FUNCTION index_t i_of(index_t k) const { return begin_x + k % extent_x(); }
+  KOKKOS_INLINE_FUNCTION index_t j_of(index_t k) const { return begin_y + k / extent_x(); }
   index_t begin(int axis) const { return axis == 0 ? begin_x : begin_y; }
   index_t end(int axis) const { return axis == 0 ? end_x : end_y; }
   bool operator==(const IndexRange2D& o) const {

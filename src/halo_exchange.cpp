@@ -7,15 +7,12 @@ namespace mpmflow {
 #ifdef MPMFLOW_HAVE_MPI
 namespace {
 
-// The nodes of an index rectangle, numbered k = i + extent_x j from its lower-left node: element
-// (component c, k) of a packed buffer.
+// The nodes of an index rectangle, numbered row by row from its lower-left node
+// (IndexRange2D::i_of, j_of): node k is element (component c, k) of a packed buffer.
 struct PackedNodes {
   GridGeometry geometry;
   IndexRange2D nodes;
-  KOKKOS_INLINE_FUNCTION index_t node(index_t k) const {
-    const index_t width = nodes.end_x - nodes.begin_x;
-    return geometry.node_index(nodes.begin_x + k % width, nodes.begin_y + k / width);
-  }
+  KOKKOS_INLINE_FUNCTION index_t node(index_t k) const { return geometry.node_index(nodes.i_of(k), nodes.j_of(k)); }
 };
 
 void pack(const PackedNodes& lines, const NodeFieldsView& fields, int first, int count, const RealView& buffer) {
