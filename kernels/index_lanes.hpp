@@ -74,7 +74,7 @@ void for_each_index_where_in_blocks(const char* label, index_t first, index_t la
   constexpr int L = index_block_size;
   const index_t n = last - first;
   Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, index_blocks(last - first)), KOKKOS_LAMBDA(const index_t k) {
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, index_blocks(n)), KOKKOS_LAMBDA(const index_t k) {
         const index_t begin = first + k * L;
         run_selected_in_block<L>(maybe, body, begin, indices_in_block(begin, last));
       });

@@ -515,7 +515,11 @@ class ColouredAccumulation {
       return order.build(particles.cell, particles.count, grid.cells_x(), grid.cells_y());
     } else {
       order.build(particles.cell, particles.count, grid.num_cells());
-      return Traversal{order.bin_offset(), order.particle(), grid.cells_x(), grid.cells_y()};
+      // Teams of Kokkos' size (GPUs: many threads); taking the GPU's paths on the host, every
+      // thread in one team, so that a team's threads share its tile as on a GPU (Kokkos' size on
+      // the host is one a core).
+      const int team_size = gpu_code_paths_on_host ? ExecutionSpace().concurrency() : 0;
+      return Traversal{order.bin_offset(), order.particle(), grid.cells_x(), grid.cells_y(), team_size};
     }
   }
 
