@@ -22,6 +22,12 @@ struct GridGeometry {
   KOKKOS_INLINE_FUNCTION index_t num_nodes() const { return nodes_x * nodes_y; }
   KOKKOS_INLINE_FUNCTION index_t num_cells() const { return cells_x() * cells_y(); }
   KOKKOS_INLINE_FUNCTION index_t node_index(index_t i, index_t j) const { return i + nodes_x * j; }
+  // The column i and row j of local node n = node_index(i, j), and of local cell c (numbered
+  // x-fastest too, as cell_of numbers them).
+  KOKKOS_INLINE_FUNCTION index_t node_i_of(index_t n) const { return n % nodes_x; }
+  KOKKOS_INLINE_FUNCTION index_t node_j_of(index_t n) const { return n / nodes_x; }
+  KOKKOS_INLINE_FUNCTION index_t cell_i_of(index_t c) const { return c % cells_x(); }
+  KOKKOS_INLINE_FUNCTION index_t cell_j_of(index_t c) const { return c / cells_x(); }
   KOKKOS_INLINE_FUNCTION real_t node_x(index_t i) const { return origin_x + spacing_x * i; }
   KOKKOS_INLINE_FUNCTION real_t node_y(index_t j) const { return origin_y + spacing_y * j; }
 

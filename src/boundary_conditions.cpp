@@ -72,6 +72,7 @@ struct SidePressure {
   index_t first_x = 0, last_x = 0, first_y = 0, last_y = 0;  // the domain's first and last local node lines
   real_t hx = 0, hy = 0, p_inf = 0, rho_inf = 0;
 
+  SidePressure() = default;  // no pressure side (step 9's bands hold none)
   SidePressure(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type, const GasState& free_stream)
       : left(pressure_side(side_type[left_side])),
         right(pressure_side(side_type[right_side])),
@@ -288,8 +289,8 @@ void GridBoundaryConditions::apply_to_momentum_and_force(const NodeFieldsView& s
 
 void GridBoundaryConditions::apply_to_momentum(const NodeFieldsView& momentum, int column_x,
                                                const NodeFieldsView& state) const {
-  apply_side_conditions(slab_.geometry, bands_without_pressure_, SidePressure(slab_, side_type_, free_stream_),
-                        free_stream_, momentum, column_x, state, /*with_force=*/false);
+  apply_side_conditions(slab_.geometry, bands_without_pressure_, SidePressure(), free_stream_, momentum, column_x,
+                        state, /*with_force=*/false);
   remove_normal_component(obstacles_, momentum, column_x);
 }
 
@@ -306,7 +307,7 @@ IndexView GridBoundaryConditions::conditioned_nodes(const IndexRange2D& within) 
   const auto obstacle_nodes = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), obstacles_.obstacle_nodes);
   for (index_t k = 0; k < obstacles_.num_obstacle_nodes(); ++k) {
     const index_t node = obstacle_nodes(k);
-    add(node % geo.nodes_x, node / geo.nodes_x);
+    add(geo.node_i_of(node), geo.node_j_of(node));
   }
   std::sort(nodes.begin(), nodes.end());
   nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());

@@ -286,7 +286,7 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   grid.obstacle_of_node = IndexView("obstacle_of_node", nodes.size());
   auto of_node_host = host_mirror(grid.obstacle_of_node);
   for (size_t k = 0; k < nodes.size(); ++k) {
-    const index_t i = nodes[k] % geo.nodes_x, j = nodes[k] / geo.nodes_x;
+    const index_t i = geo.node_i_of(nodes[k]), j = geo.node_j_of(nodes[k]);
     of_node_host(k) = owned.contains(i, j) ? host(geo.node_x(i), geo.node_y(j)).obstacle : -1;
   }
   Kokkos::deep_copy(grid.obstacle_of_node, of_node_host);

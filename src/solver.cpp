@@ -36,7 +36,7 @@ std::vector<long long> particles_per_column(const ParticleState& particles, cons
   const int axis = slab.axis;
   const IndexRange2D owned = slab.index_space(Ownership::owned, Entity::cell, Indexing::local);
   const index_t first = owned.begin(axis), columns = owned.end(axis) - first;
-  const index_t cells_x = slab.geometry.cells_x();
+  const GridGeometry geometry = slab.geometry;
   Kokkos::View<long long*, Kokkos::LayoutLeft, DeviceType> counts("particles_per_column", columns);
   {
     Kokkos::Experimental::ScatterView<long long*, Kokkos::LayoutLeft, DeviceType> scatter(counts);
@@ -44,7 +44,7 @@ std::vector<long long> particles_per_column(const ParticleState& particles, cons
     Kokkos::parallel_for(
         "particles_per_column", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
         KOKKOS_LAMBDA(const index_t p) {
-          const index_t column = (axis == 0 ? cell(p) % cells_x : cell(p) / cells_x) - first;
+          const index_t column = (axis == 0 ? geometry.cell_i_of(cell(p)) : geometry.cell_j_of(cell(p))) - first;
           if (column >= 0 && column < columns) scatter.access()(column) += 1;
         });
     Kokkos::Experimental::contribute(counts, scatter);

@@ -125,8 +125,18 @@ TEST(Decomposition, SlabAlongYHasGhostRowsAndAllColumns) {
   // A particle just below the slab (not yet migrated) is put in the first owned row of cells,
   // so its stencil stays on local nodes; with include_ghosts, in the ghost row.
   const GridGeometry& g = slab.geometry;
-  EXPECT_EQ(g.cell_of(1.05, 0.39) / g.cells_x(), 1);
-  EXPECT_EQ(g.cell_of(1.05, 0.39, /*include_ghosts=*/true) / g.cells_x(), 0);
+  EXPECT_EQ(g.cell_j_of(g.cell_of(1.05, 0.39)), 1);
+  EXPECT_EQ(g.cell_j_of(g.cell_of(1.05, 0.39, /*include_ghosts=*/true)), 0);
+  // A node's and a cell's column and row from their indices, the inverses of node_index and of
+  // cell_of's numbering (ci + cells_x cj).
+  EXPECT_EQ(g.node_i_of(g.node_index(22, 5)), 22);
+  EXPECT_EQ(g.node_j_of(g.node_index(22, 5)), 5);
+  EXPECT_EQ(g.node_i_of(g.node_index(0, 3)), 0);
+  EXPECT_EQ(g.node_j_of(g.node_index(0, 3)), 3);
+  const index_t cell = g.cell_of(1.05, 0.55);  // global cell (10, 5): local column 11, row 2
+  EXPECT_EQ(g.cell_i_of(cell), 11);
+  EXPECT_EQ(g.cell_j_of(cell), 2);
+  EXPECT_EQ(cell, g.cell_i_of(cell) + g.cells_x() * g.cell_j_of(cell));
 }
 
 // Index spaces of the slabs of a 3-slab split along `axis` of a 20 x 10 cell grid.

@@ -388,7 +388,7 @@ HostStencils stencils_on_host(const Shape& shape, const ParticleLocations& where
 bool stencil_is_inner(const HostStencils& stencils, const GridGeometry& g, int margin, index_t p) {
   for (size_t a = 0; a < stencils.node.extent(1); ++a) {
     const index_t node = stencils.node(p, a);
-    if (stencils.weight(p, a) != 0 && !is_inner_node(g, node % g.nodes_x, node / g.nodes_x, margin)) return false;
+    if (stencils.weight(p, a) != 0 && !is_inner_node(g, g.node_i_of(node), g.node_j_of(node), margin)) return false;
   }
   return true;
 }
@@ -865,7 +865,7 @@ TEST(TileOrder, GroupsParticlesByTileInIndexOrder) {
   for (index_t t = 0; t < tiles; ++t) {
     EXPECT_LT(offset(t), offset(t + 1)) << "tile " << t << " holds particles";
     for (index_t s = offset(t); s < offset(t + 1); ++s) {
-      const index_t c = cell(particle(s)), ci = c % g.cells_x(), cj = c / g.cells_x();
+      const index_t c = cell(particle(s)), ci = g.cell_i_of(c), cj = g.cell_j_of(c);
       EXPECT_EQ(ci / tile.x + tiles_x * (cj / tile.y), t) << "particle " << particle(s);
       if (s > offset(t)) EXPECT_LT(particle(s - 1), particle(s));  // index order within the tile
       ++seen[particle(s)];

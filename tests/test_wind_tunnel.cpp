@@ -749,8 +749,8 @@ TEST(GridConditions, ChangeOnlyTheNodesTheEnergyBudgetSumsOver) {
     EXPECT_FALSE(by_step_9.empty());
     for (const std::set<index_t>* changed : {&by_step_4, &by_step_9})
       for (const index_t node : *changed)
-        EXPECT_TRUE(in_list.count(node)) << "node " << node % slab.geometry.nodes_x << ", "
-                                         << node / slab.geometry.nodes_x << " of the slab from cell "
+        EXPECT_TRUE(in_list.count(node)) << "node " << slab.geometry.node_i_of(node) << ", "
+                                         << slab.geometry.node_j_of(node) << " of the slab from cell "
                                          << slab.owned_cell_begin_x << ", " << slab.owned_cell_begin_y;
   }
 }
@@ -894,7 +894,7 @@ TEST(GridConditions, ASlabCutThroughAnObstacleCountsTheForceOnTheNodesItOwns) {
     removed[0] = removed[1] = 0;
     int ghosts = 0;
     for (index_t k = 0; k < obstacles.num_obstacle_nodes(); ++k) {
-      const index_t i = nodes(k) % slab.geometry.nodes_x, j = nodes(k) / slab.geometry.nodes_x;
+      const index_t i = slab.geometry.node_i_of(nodes(k)), j = slab.geometry.node_j_of(nodes(k));
       if (!owned.contains(i, j)) {
         ++ghosts;
         continue;
