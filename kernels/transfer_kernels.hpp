@@ -20,14 +20,17 @@
 // weights and weight gradients, so the same kernels serve linear MPM and GIMP.
 //
 // P2G and P2GD accumulate into columns [first_component, first_component + N) of a (node,
-// component) View in one of two ways, chosen by the arguments' types. No hand-written atomics:
+// component) View in one of three ways, chosen by the arguments' types. No hand-written atomics:
 //  - all particles at once (a particle count, or ParticleBatches) through a Kokkos ScatterView,
 //    duplicated or atomic: the ScatterView decides how concurrent contributions to one node are
 //    combined;
-//  - tile colour by tile colour (ColouredTiles on CPUs, ColouredCells on GPUs) straight into the
-//    View (DirectNodeAccess): the tiles of cells of one colour are far enough apart that no two
-//    touch a common node, so each node is written by one thread at a time, in an order fixed by
-//    the tiles and the particles' grouping alone. Bitwise the same result for any thread count.
+//  - tile colour by tile colour (ColouredTiles, CPUs) straight into the View (DirectNodeAccess):
+//    the tiles of cells of one colour are far enough apart that no two touch a common node, so
+//    each node is written by one thread at a time, in an order fixed by the tiles and the
+//    particles' grouping alone. Bitwise the same result for any thread count;
+//  - with the particles grouped by cell (ColouredCells, GPUs), a thread a block of nodes, which
+//    gathers what the particles of the cells around it add to its nodes, in an order fixed by the
+//    cells and the particles' grouping alone (walk_nodes_gathering): bitwise the same again.
 // The traversal also decides how the stencils are computed: a particle count is the reference
 // path, one particle per thread, as the paper's kernels; ParticleBatches and ColouredTiles compute
 // the stencils of batches of particles together in vector lanes on CPUs (Shape::fill_batch), the
@@ -83,9 +86,10 @@ void p2g_end(ScatterViewType& scatter, const NodeFieldsView& target) {
   scatter.contribute_into(target);
 }
 
-// Particles grouped by cell for the coloured traversal with a team of threads per tile (the GPU
-// path; CellOrder in kernels/particle_sort.hpp builds it): the particles of local cell c are
-// particle(cell_offset(c)) .. particle(cell_offset(c + 1) - 1).
+// Particles grouped by cell, for the GPU path (CellOrder in kernels/particle_sort.hpp builds it):
+// P2G gathered by blocks of nodes (walk_nodes_gathering), or a team of threads a tile
+// (walk_tiles_in_teams) for a body that also reads nodes or writes cells. The particles of local
+// cell c are particle(cell_offset(c)) .. particle(cell_offset(c + 1) - 1).
 struct ColouredCells {
   IndexView cell_offset;
   IndexView particle;
@@ -423,15 +427,16 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 // The same, tile by tile: the cells are grouped in tiles and the tiles in four colours (2 x 2);
 // the tiles of one colour run in parallel, one thread per tile walking its particles in index
 // order (walk_tiles, ColouredTiles), or one team per tile (walk_tiles_in_teams, ColouredCells: the
-// GPU path). A particle of cell (ci, cj) reaches nodes ci - r + 1 .. ci + r (r =
-// Shape::colour_period / 2), so two tiles of one colour, a tile apart, share no node when the tile
-// is wider and taller than 2 r - 2 cells. Every node's sum so comes in an order fixed by the tiles
-// and the particles' grouping alone: the same bits for any thread count. Tiles wide along x, where
-// the cell order runs: a tile's row is a long stretch of consecutive particles (once reordered by
-// cell), and 4 passes over the grid instead of colour_period^2 for single cells. On CPUs the
-// stencils of a tile's particles are computed in batches, as for ParticleBatches.
+// GPU path, for a body that is not P2G alone: walk_nodes_gathering). A particle of cell (ci, cj)
+// reaches nodes ci - r + 1 .. ci + r (r = Shape::colour_period / 2), so two tiles of one colour, a
+// tile apart, share no node when the tile is wider and taller than 2 r - 2 cells. Every node's sum
+// so comes in an order fixed by the tiles and the particles' grouping alone: the same bits for any
+// thread count. Tiles wide along x, where the cell order runs: a tile's row is a long stretch of
+// consecutive particles (once reordered by cell), and 4 passes over the grid instead of
+// colour_period^2 for single cells. On CPUs the stencils of a tile's particles are computed in
+// batches, as for ParticleBatches.
 //
-// A team's tile on GPUs (ColouredCells), small: its nodes are staged in scratch memory (TeamTile).
+// A team's tile on GPUs (ColouredCells, TeamTile): small, so that a colour has many of them.
 constexpr TileExtent team_tile{64, 4};
 // A thread's tile on CPUs (ColouredTiles), as large as the grid allows (walk_tile_for), chosen by
 // the grid and the case's reordering alone, so that the sums' order does not depend on the
@@ -648,55 +653,35 @@ void walk_tiles(const char* label, const Shape& shape, const ParticleLocations& 
 }
 
 // A body that writes nothing but node fields, through a DirectNodeAccess `scatter` (P2G, P2GD),
-// marked by a member type only_writes_nodes: a team can accumulate its tile's nodes in scratch
-// memory for it (TeamTile).
+// marked by a member type only_writes_nodes: each node's share can be gathered by a thread of its
+// own (walk_nodes_gathering), or added into a thread's window (StagesInWindow).
 template <class Body, class = void>
 struct OnlyWritesNodes : std::false_type {};
 template <class Body>
 struct OnlyWritesNodes<Body, std::void_t<typename Body::only_writes_nodes>>
     : std::is_same<decltype(std::declval<Body&>().scatter), DirectNodeAccess> {};
 
-// What a team does with a tile of the coloured traversal on GPUs (walk_tiles_in_teams). The team
-// takes the tile's cells in colour_period^2 sub-colours, one after the other; the cells of one
-// sub-colour, colour_period apart, share no node, and a thread takes each with its particles in
-// order. Every node's sum so comes in an order fixed by the cells and the particle order alone, as
-// in walk_tiles (but another order than walk_tiles': the two agree to round-off). A body that
-// only writes nodes adds into the tile's nodes staged in scratch memory (the nodes its particles
-// reach: window_x x window_y from (ci_begin - r + 1, cj_begin - r + 1)), which the team adds to
-// the node fields once at the end; another (the fused G2P + remap P2G, which reads nodes too)
-// writes the node fields directly.
+// What a team does with a tile of the coloured traversal on GPUs (walk_tiles_in_teams), for a body
+// that reads nodes as well as adding into them (the fused G2P + remap P2G; one that only writes
+// nodes gathers instead: walk_nodes_gathering). The team takes the tile's cells in colour_period^2
+// sub-colours, one after the other; the cells of one sub-colour, colour_period apart, share no
+// node, and a thread takes each with its particles in order, writing the node fields directly.
+// Every node's sum so comes in an order fixed by the cells and the particle order alone, as in
+// walk_tiles (but another order than walk_tiles': the two agree to round-off).
 template <class Shape, class Body>
 struct TeamTile {
   using Team = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
-  static constexpr bool staged = OnlyWritesNodes<Body>::value;
-  static constexpr index_t P = Shape::colour_period, r = Shape::colour_period / 2;
-  static constexpr index_t window_x = team_tile.x + 2 * r - 1, window_y = team_tile.y + 2 * r - 1;
+  static constexpr index_t P = Shape::colour_period;
 
   Shape shape;
   RealView x, y;
   IndexView cell, offset, order;
   Body body;
   TileColour tiles;
-  index_t nodes_x, nodes_y;
-  int components;  // of the node fields written (staged)
-
-  KOKKOS_INLINE_FUNCTION size_t scratch_bytes() const {
-    return staged ? size_t(window_x * window_y) * components * sizeof(real_t) : 0;
-  }
 
   KOKKOS_INLINE_FUNCTION void operator()(const Team& team) const {
     index_t ci_begin, ci_end, cj_begin, cj_end;
     tiles.cells_of_tile(team.league_rank(), ci_begin, ci_end, cj_begin, cj_end);
-    const index_t window_nodes = window_x * window_y, i0 = ci_begin - r + 1, j0 = cj_begin - r + 1;
-    Body local = body;  // staged: the same body, adding into the window
-    real_t* window = nullptr;
-    if constexpr (staged) {
-      window = static_cast<real_t*>(team.team_scratch(0).get_shmem(scratch_bytes()));
-      Kokkos::parallel_for(Kokkos::TeamThreadRange(team, window_nodes * components),
-                           [&](const index_t m) { window[m] = 0; });
-      team.team_barrier();
-      local.scatter.target = NodeFieldsView(window, window_nodes, components);
-    }
     for (index_t sub = 0; sub < P * P; ++sub) {
       // The cells of sub-colour `sub`, a thread each.
       const index_t ci_first = ci_begin + sub % P, cj_first = cj_begin + sub / P;
@@ -706,26 +691,107 @@ struct TeamTile {
         const index_t c = ci_first + P * (m % nx) + tiles.cells_x * (cj_first + P * (m / nx));
         for (index_t s = offset(c); s < offset(c + 1); ++s) {
           const index_t p = order(s);
-          auto stencil = shape(p, cell(p), x(p), y(p));
-          if constexpr (staged) {  // its nodes in the window
-            const index_t gj = stencil.first_node / nodes_x, gi = stencil.first_node - gj * nodes_x;
-            stencil.first_node = (gi - i0) + window_x * (gj - j0);
-            stencil.row_stride = window_x;
-          }
-          local(p, stencil);
+          body(p, shape(p, cell(p), x(p), y(p)));
         }
       });
       team.team_barrier();
     }
-    if constexpr (staged) {
-      Kokkos::parallel_for(Kokkos::TeamThreadRange(team, window_nodes), [&](const index_t m) {
-        const index_t i = i0 + m % window_x, j = j0 + m / window_x;
-        if (i < 0 || j < 0 || i >= nodes_x || j >= nodes_y) return;  // beyond the grid: never reached
-        for (int c = 0; c < components; ++c) body.scatter.target(i + nodes_x * j, c) += window[m + window_nodes * c];
-      });
-    }
   }
 };
+
+// The most node columns a thread of walk_nodes_gathering sums (the node state's 7, the output
+// projection's 6), and the nodes it sums: a block of gather_block x gather_block.
+constexpr int max_gathered_columns = 8;
+constexpr index_t gather_block = 2;
+using GatherBlockStencil = SeparableStencil<gather_block>;
+
+// Particle p's share of the nodes of a block (walk_nodes_gathering), given as a stencil over the
+// block whose factors are the particle's own on the nodes its stencil holds and zero on the others:
+// the body's add_share where it has one (a body whose functor counts particles, in doubt: counted
+// only where `counted`, in one block of the particle's nodes), or else the body itself.
+template <class Body, class = void>
+struct AddsShares : std::false_type {};
+template <class Body>
+struct AddsShares<Body, std::void_t<decltype(std::declval<const Body&>().add_share(
+                            index_t(0), std::declval<const GatherBlockStencil&>(), true))>> : std::true_type {};
+template <class Body>
+KOKKOS_FORCEINLINE_FUNCTION void add_share(const Body& body, index_t p, const GatherBlockStencil& s, bool counted) {
+  if constexpr (AddsShares<Body>::value)
+    body.add_share(p, s, counted);
+  else
+    body(p, s);
+}
+
+// P2G on GPUs with the particles grouped by cell (ColouredCells), for a body that only writes nodes
+// (OnlyWritesNodes): a thread a block of gather_block x gather_block nodes, which sums what the
+// particles of the cells whose stencils may reach the block add to its nodes (a particle of cell
+// ci reaches node lines ci - r + 1 .. ci + r, r = colour_period / 2), row of cells by row, each
+// cell's particles in order, and adds the sums into the nodes once. Every node's sum so comes in
+// an order fixed by the cells and the particle order alone: the same bits for any number of
+// threads (another order than the CPU walk's: the two agree to round-off). No atomics, no colours,
+// no scratch memory, and every thread busy. The price: each particle's stencil is computed by each
+// block whose cells' range holds the particle's cell ((2 r + 1)^2 / 4 blocks on average: 2.25 for
+// the linear shape, 6.25 for GIMP and B-splines), and its values by each block its stencil meets. A particle's share is
+// the body's operations on a stencil over the block (the same products as on its own stencil;
+// zero factors for the block's nodes outside it: the 3-wide stencils hold such nodes too). (With a
+// node a thread, each particle's stencil was computed 16 times for GIMP, which made the GPU paths'
+// tests on CPUs 1.14 times as long as with the blocks; a team a tile, whose threads took a cell each in colour_period^2
+// sub-colours with the nodes staged in scratch memory, took 5.6 times as long as atomic P2G on an
+// H200: docs/performance_history.md, "On GPUs".)
+template <class Shape, class Body>
+void walk_nodes_gathering(const char* label, const Shape& shape, const ParticleLocations& particles,
+                          const ColouredCells& cells, const Body& body) {
+  using Stencil = decltype(shape(index_t(0), index_t(0), real_t(0), real_t(0)));
+  constexpr index_t K = Stencil::width, B = gather_block, r = Shape::colour_period / 2;
+  const NodeFieldsView target = body.scatter.target;
+  const int components = static_cast<int>(target.extent(1));
+  if (components > max_gathered_columns)
+    Kokkos::abort("walk_nodes_gathering: more node columns than max_gathered_columns");
+  const index_t nodes_x = shape.grid.geometry.nodes_x, nodes_y = shape.grid.geometry.nodes_y;
+  const index_t blocks_x = (nodes_x + B - 1) / B, blocks_y = (nodes_y + B - 1) / B;
+  const index_t cells_x = cells.cells_x, cells_y = cells.cells_y;
+  const RealView x = particles.x, y = particles.y;
+  const IndexView offset = cells.cell_offset, order = cells.particle;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, blocks_x * blocks_y), KOKKOS_LAMBDA(const index_t k) {
+        const index_t bj = k / blocks_x, i0 = B * (k - bj * blocks_x), j0 = B * bj;
+        real_t sums[B * B * max_gathered_columns];  // node (a, b) of the block, column c: a + B b + B^2 c
+        for (int m = 0; m < B * B * max_gathered_columns; ++m) sums[m] = 0;
+        Body local = body;  // adding into `sums`
+        local.scatter.target = NodeFieldsView(sums, B * B, components);
+        const index_t ci_begin = i0 > r ? i0 - r : 0, ci_end = i0 + B - 1 + r < cells_x ? i0 + B - 1 + r : cells_x;
+        const index_t cj_begin = j0 > r ? j0 - r : 0, cj_end = j0 + B - 1 + r < cells_y ? j0 + B - 1 + r : cells_y;
+        for (index_t cj = cj_begin; cj < cj_end; ++cj)
+          for (index_t ci = ci_begin; ci < ci_end; ++ci) {
+            const index_t c = ci + cells_x * cj;
+            for (index_t s = offset(c); s < offset(c + 1); ++s) {
+              const index_t p = order(s);
+              const Stencil st = shape(p, c, x(p), y(p));
+              const index_t fj = st.first_node / nodes_x, fi = st.first_node - fj * nodes_x;
+              GatherBlockStencil block;
+              block.first_node = 0;
+              block.row_stride = B;
+              bool meets_x = false, meets_y = false;
+              for (index_t d = 0; d < B; ++d) {
+                const index_t a = i0 + d - fi, b = j0 + d - fj;
+                const bool in_x = a >= 0 && a < K, in_y = b >= 0 && b < K;
+                block.wx[d] = in_x ? st.wx[a] : real_t(0), block.gx[d] = in_x ? st.gx[a] : real_t(0);
+                block.wy[d] = in_y ? st.wy[b] : real_t(0), block.gy[d] = in_y ? st.gy[b] : real_t(0);
+                meets_x = meets_x || in_x, meets_y = meets_y || in_y;
+              }
+              if (!(meets_x && meets_y)) continue;
+              // (Counted in the block of the particle's first node, once.)
+              add_share(local, p, block, fi >= i0 && fi < i0 + B && fj >= j0 && fj < j0 + B);
+            }
+          }
+        for (index_t b = 0; b < B; ++b)
+          for (index_t a = 0; a < B; ++a) {
+            if (i0 + a >= nodes_x || j0 + b >= nodes_y) continue;  // (a block past the grid's last node)
+            const index_t n = (i0 + a) + nodes_x * (j0 + b);
+            for (int c = 0; c < components; ++c) target(n, c) += sums[a + B * b + B * B * c];
+          }
+      });
+}
 
 // The windows of the CPU walks (walk_window_pass): a window holds whole
 // rows of nodes (row stride nodes_x, so that a stencil's node n is the window's row n - base), of
@@ -898,25 +964,13 @@ void walk_tiles_through_windows(const char* label, const Shape& shape, const Par
 template <class Shape, class Body>
 void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLocations& particles,
                          const ColouredCells& cells, const Body& body) {
-  int components = 0;
-  if constexpr (TeamTile<Shape, Body>::staged) components = static_cast<int>(body.scatter.target.extent(1));
   for (int colour = 0; colour < 4; ++colour) {
     const TileColour tiles(cells.cells_x, cells.cells_y, colour, team_tile);
     if (tiles.tiles() == 0) continue;
-    const TeamTile<Shape, Body> tile{shape,
-                                     particles.x,
-                                     particles.y,
-                                     particles.cell,
-                                     cells.cell_offset,
-                                     cells.particle,
-                                     body,
-                                     tiles,
-                                     shape.grid.geometry.nodes_x,
-                                     shape.grid.geometry.nodes_y,
-                                     components};
+    const TeamTile<Shape, Body> tile{shape,          particles.x, particles.y, particles.cell, cells.cell_offset,
+                                     cells.particle, body,        tiles};
     auto policy = cells.team_size > 0 ? Kokkos::TeamPolicy<ExecutionSpace>(tiles.tiles(), cells.team_size)
                                       : Kokkos::TeamPolicy<ExecutionSpace>(tiles.tiles(), Kokkos::AUTO);
-    if (tile.scratch_bytes() > 0) policy.set_scratch_size(0, Kokkos::PerTeam(tile.scratch_bytes()));
     Kokkos::parallel_for(label, policy, tile);
   }
 }
@@ -933,7 +987,9 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
   // (A strip has no tile beside it: only its height counts.)
   static_assert(walk_strip_heights[std::size(walk_strip_heights) - 1] > Shape::colour_period - 2,
                 "strips of one colour must not share a node");
-  if constexpr (std::is_same<Coloured, ColouredCells>::value)
+  if constexpr (std::is_same<Coloured, ColouredCells>::value && OnlyWritesNodes<Body>::value)
+    walk_nodes_gathering(label, shape, particles, coloured, body);
+  else if constexpr (std::is_same<Coloured, ColouredCells>::value)
     walk_tiles_in_teams(label, shape, particles, coloured, body);
   else if constexpr (StagesInWindow<Body>::value && cpu_code_paths)
     walk_tiles_staged(label, shape, particles, coloured, body);
@@ -1192,6 +1248,21 @@ struct P2GAndP2GDBody {
     real_t value[NV];
     real_t vector[ND][2];
     value_functor(p, value);
+    vector_functor(p, vector);
+    add(s, value, vector);
+  }
+  // The same on a block of nodes (walk_nodes_gathering), the particle counted (in doubt) only where
+  // `counted`: in one block of its nodes, not in each.
+  template <class StencilType>
+  KOKKOS_FORCEINLINE_FUNCTION void add_share(const index_t p, const StencilType& s, bool counted) const {
+    real_t value[NV];
+    real_t vector[ND][2];
+    if constexpr (WritesValuesInLanes<ValueFunctor, 1>::value) {
+      const index_t in_doubt = value_functor.values(p, value);
+      if (counted) value_functor.add_count(in_doubt);
+    } else {
+      value_functor(p, value);
+    }
     vector_functor(p, vector);
     add(s, value, vector);
   }

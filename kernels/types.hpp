@@ -34,8 +34,9 @@ using DeviceType = Kokkos::Device<ExecutionSpace, MemorySpace>;
 
 // Which code paths the kernels take: the CPUs' where the memory is the host's (vector lanes over
 // blocks of indices, tiles that threads walk, a counting sort, duplicated or coloured P2G; the
-// host reading the Views themselves), the GPUs' elsewhere (one index a thread, a team a tile, a
-// bin sort, atomics; the host reading mirrors, copied to and from the device). A build configured
+// host reading the Views themselves), the GPUs' elsewhere (one index a thread, the sorted P2G
+// gathered by blocks of nodes, a bin sort, atomics; the host reading mirrors, copied to and from
+// the device). A build configured
 // with MPMFLOW_GPU_CODE_PATHS_ON_HOST (the `gpu-paths` presets) takes the GPUs' paths on the host,
 // and gives every host mirror memory of its own, as a GPU's has: so the code only a GPU build
 // runs is run by the tests on CPUs, and a copy between a View and its mirror that is missing

@@ -298,7 +298,11 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
         << "numerics: shape function " << to_string(config.numerics.shape_function) << ", P2G "
         << to_string(solver.p2g_strategy()) << ", reorder every " << config.numerics.reorder_interval
         << " steps (0: never), kernels "
-        << (config.numerics.fused_kernels ? "fused (G2P + momentum remap P2G in one pass)" : "unfused") << "\n";
+        << (!config.numerics.fused_kernels            ? "unfused"
+            : solver.fuses_g2p_with_remap()             ? "fused (G2P + momentum remap P2G in one pass)"
+                                                        : "fused, but G2P and the momentum remap P2G in two passes "
+                                                          "(the sorted P2G gathers a node's sums in a thread)")
+        << "\n";
     if (restarting)
       log << "restart from " << restart.path << ": step " << restart.clock.step << ", t = " << restart.clock.time
           << "\n";

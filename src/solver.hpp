@@ -99,6 +99,8 @@ class Solver {
   const PhaseTimers& timers() const { return timers_; }
   // The P2G accumulation in use, after resolving "automatic" for this execution space.
   P2GStrategy p2g_strategy() const { return transfers_->strategy(); }
+  // Whether numerics/fused_kernels makes steps 6-8 one pass (TransferKernels::fuses_g2p_with_remap).
+  bool fuses_g2p_with_remap() const { return transfers_->fuses_g2p_with_remap(); }
 
   // Particle splitting: the splits so far (checkpoints carry them: they number the new ids).
   const ParticleSplitting& splitting() const { return splitting_; }

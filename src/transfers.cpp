@@ -411,6 +411,7 @@ template <class Duplication>
 class ScatterAccumulation {
  public:
   static constexpr bool duplicated = std::is_same<Duplication, Kokkos::Experimental::ScatterDuplicated>::value;
+  static constexpr bool fuses_g2p_with_remap = true;  // (TransferKernels::fuses_g2p_with_remap)
   using Access = NodeScatterView<Duplication>;
 
   ScatterAccumulation(GridFields& fields, const NodeFieldsView& cell_sums, ParticleOrder /* (walks no tiles) */)
@@ -467,16 +468,19 @@ class ScatterAccumulation {
   Access cells_;  // the per-cell sums of cell-averaged strain
 };
 
-// Sorted and coloured: the particles grouped (CellOrder, rebuilt every step since the particles
-// move), then P2G tile colour by tile colour straight into the node fields. No copies, no atomics,
-// and the same sums in the same order for any thread count: bitwise reproducible. On CPUs grouped
-// by tile, in index order (ColouredTiles: a thread per tile, whose particles reordered by cell are
-// long runs of consecutive ones); on GPUs by cell (ColouredCells: a team per tile, a thread per
-// cell of a sub-colour).
+// Sorted: the particles grouped (rebuilt every step since the particles move), then P2G straight
+// into the node fields. No copies, no atomics, and the same sums in the same order for any thread
+// count: bitwise reproducible. On CPUs grouped by tile, in index order (ColouredTiles: a thread per
+// tile, tile colour by tile colour, whose particles reordered by cell are long runs of consecutive
+// ones); on GPUs by cell (ColouredCells: a thread per block of nodes gathers its nodes' sums,
+// walk_nodes_gathering).
 class ColouredAccumulation {
  public:
   using Access = DirectNodeAccess;
   static constexpr bool by_tile = cpu_code_paths;
+  // By cell, P2G gathers each node's sums in a thread of the node's (walk_nodes_gathering), from
+  // particles that the fused kernel would update in the same pass: G2P, then the remap P2G.
+  static constexpr bool fuses_g2p_with_remap = by_tile;
   using Traversal = std::conditional_t<by_tile, ColouredTiles, ColouredCells>;
 
   ColouredAccumulation(GridFields& fields, const NodeFieldsView& cell_sums, ParticleOrder particle_order)
@@ -580,13 +584,18 @@ class Transfers final : public TransferKernels {
   }
 
   void g2p_p2g_velocity_momentum(const ParticleState& pt, real_t dt) override {
-    const NodeFieldsView momentum = momentum_columns(fields_.state);
-    p2g_begin(accumulation_.momentum(), momentum);
-    g2p_then_p2g("g2p_p2g_velocity_momentum", current_shape(shape_, pt), pt.locations(), accumulation_.traversal(pt),
-                 NodeColumns<2>{fields_.per_unit_mass, GridFields::acceleration_x},
-                 AccelerateThenCarryMomentum{Accelerate{pt.velocity_x, pt.velocity_y, dt}, pt.mass},
-                 accumulation_.momentum(), 0);
-    accumulation_.end_momentum(momentum);
+    if constexpr (Accumulation::fuses_g2p_with_remap) {
+      const NodeFieldsView momentum = momentum_columns(fields_.state);
+      p2g_begin(accumulation_.momentum(), momentum);
+      g2p_then_p2g("g2p_p2g_velocity_momentum", current_shape(shape_, pt), pt.locations(),
+                   accumulation_.traversal(pt), NodeColumns<2>{fields_.per_unit_mass, GridFields::acceleration_x},
+                   AccelerateThenCarryMomentum{Accelerate{pt.velocity_x, pt.velocity_y, dt}, pt.mass},
+                   accumulation_.momentum(), 0);
+      accumulation_.end_momentum(momentum);
+    } else {
+      g2p_velocity_acceleration(pt, dt);
+      p2g_momentum_remap(pt);
+    }
   }
 
   void g2p_velocity_acceleration(const ParticleState& pt, real_t dt) override {
@@ -644,6 +653,7 @@ class Transfers final : public TransferKernels {
   }
 
   P2GStrategy strategy() const override { return accumulation_.strategy(); }
+  bool fuses_g2p_with_remap() const override { return Accumulation::fuses_g2p_with_remap; }
   size_t scratch_bytes() const override { return accumulation_.extra_bytes(); }
 
   bool relaxes_pressure() const override { return pressure_relaxation_; }

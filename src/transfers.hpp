@@ -48,8 +48,12 @@ class TransferKernels {
   // no pass of its own to check them; otherwise count_invalid_gas_states decides.
   virtual index_t particles_in_doubt() const = 0;
   // 6.-8. in one pass: V' = V + dt G2P(f / m) from the per-unit-mass columns, then mv = P2G(M V')
-  // into the state's momentum columns (zeroed).
+  // into the state's momentum columns (zeroed). (In two where fuses_g2p_with_remap is false.)
   virtual void g2p_p2g_velocity_momentum(const ParticleState& particles, real_t dt) = 0;
+  // Whether g2p_p2g_velocity_momentum is one pass: not with the sorted P2G of the GPU paths, whose
+  // thread a node gathers from particles that a fused pass would be updating meanwhile
+  // (walk_nodes_gathering): there it runs the two kernels below one after the other.
+  virtual bool fuses_g2p_with_remap() const = 0;
   // 6.-7. alone: V'.
   virtual void g2p_velocity_acceleration(const ParticleState& particles, real_t dt) = 0;
   // 8. alone: mv = P2G(M V') into the state's momentum columns (zeroed).
