@@ -1222,6 +1222,15 @@ template <class Functor, int L>
 struct WritesVectorsInLanes<Functor, L,
                             std::void_t<decltype(std::declval<const Functor&>()(index_t(0), LaneVectorOutputs<L>{}))>>
     : std::true_type {};
+// A P2G functor of N values that returns what it counts of a particle (values(p, value) into an
+// array) and adds such counts (add_count), as WritesValuesInLanes without lanes. (Asked of lanes of
+// one, the lanes' version, never called then, made nvcc warn of it as declared and unused.)
+template <class Functor, int N, class = void>
+struct CountsParticles : std::false_type {};
+template <class Functor, int N>
+struct CountsParticles<Functor, N,
+                       std::void_t<decltype(std::declval<const Functor&>().values(index_t(0), std::declval<real_t (&)[N]>())),
+                                   decltype(std::declval<const Functor&>().add_count(index_t(0)))>> : std::true_type {};
 
 // A P2GD functor whose component d has its axis-d part alone, G_d = g_d e_d (zeta and eta of eq. 13,
 // the force of an isotropic stress: F_d = g_d dphi/dx_d), marked by pairs_component_with_axis =
@@ -1257,7 +1266,7 @@ struct P2GAndP2GDBody {
   KOKKOS_FORCEINLINE_FUNCTION void add_share(const index_t p, const StencilType& s, bool counted) const {
     real_t value[NV];
     real_t vector[ND][2];
-    if constexpr (WritesValuesInLanes<ValueFunctor, 1>::value) {
+    if constexpr (CountsParticles<ValueFunctor, NV>::value) {
       const index_t in_doubt = value_functor.values(p, value);
       if (counted) value_functor.add_count(in_doubt);
     } else {

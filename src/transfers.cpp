@@ -46,6 +46,8 @@ struct MassMomentumAndPressureVolume {
     count(0) += particles_in_doubt;
   }
 };
+// (So that the gathering P2G counts a particle once, not in each block of nodes it reaches.)
+static_assert(CountsParticles<MassMomentumAndPressureVolume, MassMomentumAndPressureVolume::num_components>::value);
 
 // P2G(I, M), P2G(I, M V), P2G(I, M rho), P2G(I, M P), P2G(I, M E): the state on the grid, for
 // output (GridFields::ProjectionColumn).
