@@ -36,11 +36,10 @@ using DeviceType = Kokkos::Device<ExecutionSpace, MemorySpace>;
 // blocks of indices, tiles that threads walk, a counting sort, duplicated or coloured P2G; the
 // host reading the Views themselves), the GPUs' elsewhere (one index a thread, the sorted P2G
 // gathered by blocks of nodes, a bin sort, atomics; the host reading mirrors, copied to and from
-// the device). A build configured
-// with MPMFLOW_GPU_CODE_PATHS_ON_HOST (the `gpu-paths` presets) takes the GPUs' paths on the host,
-// and gives every host mirror memory of its own, as a GPU's has: so the code only a GPU build
-// runs is run by the tests on CPUs, and a copy between a View and its mirror that is missing
-// shows there.
+// the device). A build configured with MPMFLOW_GPU_CODE_PATHS_ON_HOST (the `gpu-paths` presets)
+// takes the GPUs' paths on the host, and gives every host mirror memory of its own, as a GPU's
+// has: so the code only a GPU build runs is run by the tests on CPUs, and a copy between a View
+// and its mirror that is missing shows there.
 #ifdef MPMFLOW_GPU_CODE_PATHS_ON_HOST
 inline constexpr bool gpu_code_paths_on_host = true;
 #else

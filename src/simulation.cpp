@@ -301,7 +301,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
         << (!config.numerics.fused_kernels            ? "unfused"
             : solver.fuses_g2p_with_remap()             ? "fused (G2P + momentum remap P2G in one pass)"
                                                         : "fused, but G2P and the momentum remap P2G in two passes "
-                                                          "(the sorted P2G gathers a node's sums in a thread)")
+                                                          "(the sorted P2G gathers by blocks of nodes)")
         << "\n";
     if (restarting)
       log << "restart from " << restart.path << ": step " << restart.clock.step << ", t = " << restart.clock.time

@@ -480,8 +480,8 @@ class ColouredAccumulation {
  public:
   using Access = DirectNodeAccess;
   static constexpr bool by_tile = cpu_code_paths;
-  // By cell, P2G gathers each node's sums in a thread of the node's (walk_nodes_gathering), from
-  // particles that the fused kernel would update in the same pass: G2P, then the remap P2G.
+  // By cell, P2G gathers a block of nodes' sums in a thread of the block's (walk_nodes_gathering),
+  // from particles that the fused kernel would update in the same pass: G2P, then the remap P2G.
   static constexpr bool fuses_g2p_with_remap = by_tile;
   using Traversal = std::conditional_t<by_tile, ColouredTiles, ColouredCells>;
 

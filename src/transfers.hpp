@@ -51,7 +51,7 @@ class TransferKernels {
   // into the state's momentum columns (zeroed). (In two where fuses_g2p_with_remap is false.)
   virtual void g2p_p2g_velocity_momentum(const ParticleState& particles, real_t dt) = 0;
   // Whether g2p_p2g_velocity_momentum is one pass: not with the sorted P2G of the GPU paths, whose
-  // thread a node gathers from particles that a fused pass would be updating meanwhile
+  // thread a block of nodes gathers from particles that a fused pass would be updating meanwhile
   // (walk_nodes_gathering): there it runs the two kernels below one after the other.
   virtual bool fuses_g2p_with_remap() const = 0;
   // 6.-7. alone: V'.
