@@ -747,7 +747,8 @@ void walk_nodes_gathering(const char* label, const Shape& shape, const ParticleL
   const int components = static_cast<int>(target.extent(1));
   if (components > max_gathered_columns)
     Kokkos::abort("walk_nodes_gathering: more node columns than max_gathered_columns");
-  const index_t nodes_x = shape.grid.geometry.nodes_x, nodes_y = shape.grid.geometry.nodes_y;
+  const GridGeometry geometry = shape.grid.geometry;
+  const index_t nodes_x = geometry.nodes_x, nodes_y = geometry.nodes_y;
   const index_t blocks_x = (nodes_x + B - 1) / B, blocks_y = (nodes_y + B - 1) / B;
   const index_t cells_x = cells.cells_x, cells_y = cells.cells_y;
   const RealView x = particles.x, y = particles.y;
@@ -756,7 +757,7 @@ void walk_nodes_gathering(const char* label, const Shape& shape, const ParticleL
       label, Kokkos::RangePolicy<ExecutionSpace>(0, blocks_x * blocks_y), KOKKOS_LAMBDA(const index_t k) {
         const index_t bj = k / blocks_x, i0 = B * (k - bj * blocks_x), j0 = B * bj;
         real_t sums[B * B * max_gathered_columns];  // node (a, b) of the block, column c: a + B b + B^2 c
-        for (int m = 0; m < B * B * max_gathered_columns; ++m) sums[m] = 0;
+        for (int m = 0; m < B * B * components; ++m) sums[m] = 0;  // (the columns the body adds to)
         Body local = body;  // adding into `sums`
         local.scatter.target = NodeFieldsView(sums, B * B, components);
         const index_t ci_begin = i0 > r ? i0 - r : 0, ci_end = i0 + B - 1 + r < cells_x ? i0 + B - 1 + r : cells_x;
@@ -767,7 +768,7 @@ void walk_nodes_gathering(const char* label, const Shape& shape, const ParticleL
             for (index_t s = offset(c); s < offset(c + 1); ++s) {
               const index_t p = order(s);
               const Stencil st = shape(p, c, x(p), y(p));
-              const index_t fj = st.first_node / nodes_x, fi = st.first_node - fj * nodes_x;
+              const index_t fi = geometry.node_i_of(st.first_node), fj = geometry.node_j_of(st.first_node);
               GatherBlockStencil block;
               block.first_node = 0;
               block.row_stride = B;
@@ -787,7 +788,7 @@ void walk_nodes_gathering(const char* label, const Shape& shape, const ParticleL
         for (index_t b = 0; b < B; ++b)
           for (index_t a = 0; a < B; ++a) {
             if (i0 + a >= nodes_x || j0 + b >= nodes_y) continue;  // (a block past the grid's last node)
-            const index_t n = (i0 + a) + nodes_x * (j0 + b);
+            const index_t n = geometry.node_index(i0 + a, j0 + b);
             for (int c = 0; c < components; ++c) target(n, c) += sums[a + B * b + B * B * c];
           }
       });
