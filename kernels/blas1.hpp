@@ -1,7 +1,8 @@
 #pragma once
 // BLAS-1 on particle Views: Kokkos Kernels' KokkosBlas when the build has it (the default) and,
-// for the sums, the Views hold doubles (below); else the same operations as plain Kokkos
-// reductions, so a minimal GPU build needs Kokkos alone.
+// for the sums, the Views hold doubles and the kernels take the GPUs' paths (below); else the same
+// operations as plain Kokkos loops, so a minimal GPU build needs Kokkos alone.
+#include "kernels/reductions.hpp"
 #include "kernels/types.hpp"
 
 #include <type_traits>
@@ -17,42 +18,57 @@ namespace mpmflow {
 // The sums below accumulate in double whatever real_t is: they make the conservation totals, which
 // summed in float lost about 1e-4 of themselves (a single-precision build's coarse cylinder, 16 770
 // particles: a mass-balance residual of 1.5e-4 after 454 steps, 1.8e-10 with the sums in double).
-// KokkosBlas sums in the Views' own value type, so it serves where that is double; plain Kokkos
-// reductions, with a double accumulator, elsewhere and without Kokkos Kernels.
+// KokkosBlas sums in the Views' own value type, so it serves where that is double; and on CPUs its
+// sums change in their last bits with the thread count (Kokkos' OpenMP reduction sums each
+// thread's share), so there the sums are taken in fixed chunks (sum_in_fixed_order), the same bits
+// on any thread count, as a run's snapshots are with the sorted P2G.
 
-// sum_k x_k and sum_k x_k y_k as plain Kokkos reductions in double.
+// sum_k x_k and sum_k x_k y_k in double, in sum_in_fixed_order's order.
+template <class XView>
+struct SumInDouble {
+  using value_type = double[];
+  unsigned value_count = 1;  // (Kokkos' name: the length of an array reduction)
+  XView x;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sum) const { sum[0] += x(k); }
+};
+template <class XView, class YView>
+struct DotInDouble {
+  using value_type = double[];
+  unsigned value_count = 1;
+  XView x;
+  YView y;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sum) const { sum[0] += double(x(k)) * double(y(k)); }
+};
 template <class XView>
 double sum_in_double(const XView& x) {
   double result = 0;
-  Kokkos::parallel_reduce(
-      "blas_sum", Kokkos::RangePolicy<ExecutionSpace>(0, x.extent(0)),
-      KOKKOS_LAMBDA(const int k, double& acc) { acc += x(k); }, result);
+  sum_in_fixed_order("blas_sum", static_cast<index_t>(x.extent(0)), SumInDouble<XView>{1, x}, &result);
   return result;
 }
 template <class XView, class YView>
 double dot_in_double(const XView& x, const YView& y) {
   double result = 0;
-  Kokkos::parallel_reduce(
-      "blas_dot", Kokkos::RangePolicy<ExecutionSpace>(0, x.extent(0)),
-      KOKKOS_LAMBDA(const int k, double& acc) { acc += double(x(k)) * double(y(k)); }, result);
+  sum_in_fixed_order("blas_dot", static_cast<index_t>(x.extent(0)), DotInDouble<XView, YView>{1, x, y}, &result);
   return result;
 }
 
 #ifdef MPMFLOW_HAVE_KOKKOS_KERNELS
-// Whether KokkosBlas' sums over View's values accumulate in double.
+// Whether KokkosBlas takes the sums over View's values: they accumulate in double, and the
+// kernels take the GPUs' paths.
 template <class View>
-constexpr bool kokkos_blas_sums_in_double = std::is_same<typename View::non_const_value_type, double>::value;
+constexpr bool kokkos_blas_takes_sums =
+    std::is_same<typename View::non_const_value_type, double>::value && !cpu_code_paths;
 
 // sum_k x_k
 template <class XView>
 double blas_sum(const XView& x) {
-  if constexpr (kokkos_blas_sums_in_double<XView>) return KokkosBlas::sum(x);
+  if constexpr (kokkos_blas_takes_sums<XView>) return KokkosBlas::sum(x);
   else return sum_in_double(x);
 }
 // sum_k x_k y_k
 template <class XView, class YView>
 double blas_dot(const XView& x, const YView& y) {
-  if constexpr (kokkos_blas_sums_in_double<XView> && kokkos_blas_sums_in_double<YView>) return KokkosBlas::dot(x, y);
+  if constexpr (kokkos_blas_takes_sums<XView> && kokkos_blas_takes_sums<YView>) return KokkosBlas::dot(x, y);
   else return dot_in_double(x, y);
 }
 #else

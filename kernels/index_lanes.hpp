@@ -101,7 +101,8 @@ void for_each_index_where(const char* label, index_t first, index_t last, const 
 // step: the energy they take out and each obstacle's impulse), in the same two forms by name. One
 // array reduction (Kokkos' value_type double[]): the host waits once for all the totals, which are
 // summed in the same order from run to run on any back-end (a ScatterView's atomic additions on a
-// GPU are not). `totals`: count entries of host memory, all 0 for n = 0.
+// GPU are not), and on CPUs on any thread count (sum_in_fixed_chunks). `totals`: count entries of
+// host memory, all 0 for n = 0.
 template <class Maybe, class Body>
 struct SumsWhereInBlocks {
   using value_type = double[];
@@ -125,26 +126,17 @@ struct SumsWhereOneByOne {
     if (maybe(i)) body(i, sums);
   }
 };
-inline bool no_totals_to_sum(index_t n, int count, double* totals) {
-  if (n > 0) return false;
-  for (int k = 0; k < count; ++k) totals[k] = 0;
-  return true;
-}
 template <class Maybe, class Body>
 void sums_over_indices_where_in_blocks(const char* label, index_t n, int count, const Maybe& maybe, const Body& body,
                                        double* totals) {
-  if (no_totals_to_sum(n, count, totals)) return;
-  Kokkos::parallel_reduce(label, Kokkos::RangePolicy<ExecutionSpace>(0, index_blocks(n)),
-                          SumsWhereInBlocks<Maybe, Body>{static_cast<unsigned>(count), n, maybe, body},
-                          HostTotals(totals, static_cast<size_t>(count)));
+  // (In chunks of fixed_order_chunk indices: the same bits on any thread count.)
+  sum_in_fixed_chunks(label, index_blocks(n), fixed_order_chunk / index_block_size,
+                      SumsWhereInBlocks<Maybe, Body>{static_cast<unsigned>(count), n, maybe, body}, totals);
 }
 template <class Maybe, class Body>
 void sums_over_indices_where_one_by_one(const char* label, index_t n, int count, const Maybe& maybe,
                                         const Body& body, double* totals) {
-  if (no_totals_to_sum(n, count, totals)) return;
-  Kokkos::parallel_reduce(label, Kokkos::RangePolicy<ExecutionSpace>(0, n),
-                          SumsWhereOneByOne<Maybe, Body>{static_cast<unsigned>(count), maybe, body},
-                          HostTotals(totals, static_cast<size_t>(count)));
+  sum_in_kokkos(label, n, SumsWhereOneByOne<Maybe, Body>{static_cast<unsigned>(count), maybe, body}, totals);
 }
 template <class Maybe, class Body>
 void sums_over_indices_where(const char* label, index_t n, int count, const Maybe& maybe, const Body& body,

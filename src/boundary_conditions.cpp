@@ -249,11 +249,10 @@ void add_obstacle_forces(const ObstacleGrid& obstacles, const NodeFieldsView& st
   forces.y.assign(num_obstacles, 0.0);
   if (count == 0) return;
   std::vector<double> sums(2 * num_obstacles, 0.0);
-  Kokkos::parallel_reduce(
-      "obstacle_force", Kokkos::RangePolicy<ExecutionSpace>(0, count),
-      ObstacleForceSums{static_cast<unsigned>(sums.size()), obstacles.obstacle_nodes, obstacles.obstacle_of_node,
-                        obstacles.obstacle_normals, state},
-      HostTotals(sums.data(), sums.size()));
+  sum_in_fixed_order("obstacle_force", count,
+                     ObstacleForceSums{static_cast<unsigned>(sums.size()), obstacles.obstacle_nodes,
+                                       obstacles.obstacle_of_node, obstacles.obstacle_normals, state},
+                     sums.data());
   for (size_t o = 0; o < num_obstacles; ++o) {
     forces.x[o] = sums[2 * o];
     forces.y[o] = sums[2 * o + 1];

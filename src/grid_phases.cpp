@@ -113,26 +113,39 @@ void keep_remap_before_conditions(const GridFields& fields) {
   keep_vectors("keep_remap", fields, {{{GridFields::momentum_x, GridFields::raw_remap_momentum_x}, {0, 0}}}, 1);
 }
 
+namespace {
+
+// boundary_work's sum over the conditioned nodes (an array reduction of one total, for
+// sum_in_fixed_order).
+struct BoundaryWorkSum {
+  using value_type = double[];
+  unsigned value_count = 1;  // (Kokkos' name: the length of an array reduction)
+  NodeFieldsView state, raw, per_unit_mass;
+  IndexView node_of;
+  real_t mass_threshold;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sum) const {
+    const index_t node = node_of(k);
+    const real_t inv_m = per_unit_node_mass(state(node, GridFields::mass), mass_threshold);
+    // The particles' kinetic energy change, per dt ...
+    const real_t mean_momentum_x = real_t(0.5) * (raw(k, GridFields::raw_momentum_x) + raw(k, GridFields::raw_remap_momentum_x));
+    const real_t mean_momentum_y = real_t(0.5) * (raw(k, GridFields::raw_momentum_y) + raw(k, GridFields::raw_remap_momentum_y));
+    const double kinetic = double(inv_m) * (state(node, GridFields::force_x) * mean_momentum_x +
+                                            state(node, GridFields::force_y) * mean_momentum_y);
+    // ... plus their internal energy change.
+    const double internal = -(raw(k, GridFields::raw_force_x) * per_unit_mass(node, GridFields::remap_velocity_x) +
+                              raw(k, GridFields::raw_force_y) * per_unit_mass(node, GridFields::remap_velocity_y));
+    sum[0] += kinetic + internal;
+  }
+};
+
+}  // namespace
+
 double boundary_work(const GridFields& fields, real_t dt, real_t mass_threshold) {
-  const NodeFieldsView state = fields.state, raw = fields.before_conditions, per_unit_mass = fields.per_unit_mass;
-  const IndexView node_of = fields.conditioned_node;
   double work = 0;
-  Kokkos::parallel_reduce(
-      "boundary_work", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(node_of.extent(0))),
-      KOKKOS_LAMBDA(const index_t k, double& sum) {
-        const index_t node = node_of(k);
-        const real_t inv_m = per_unit_node_mass(state(node, GridFields::mass), mass_threshold);
-        // The particles' kinetic energy change, per dt ...
-        const real_t mean_momentum_x = real_t(0.5) * (raw(k, GridFields::raw_momentum_x) + raw(k, GridFields::raw_remap_momentum_x));
-        const real_t mean_momentum_y = real_t(0.5) * (raw(k, GridFields::raw_momentum_y) + raw(k, GridFields::raw_remap_momentum_y));
-        const double kinetic = double(inv_m) * (state(node, GridFields::force_x) * mean_momentum_x +
-                                                state(node, GridFields::force_y) * mean_momentum_y);
-        // ... plus their internal energy change.
-        const double internal = -(raw(k, GridFields::raw_force_x) * per_unit_mass(node, GridFields::remap_velocity_x) +
-                                  raw(k, GridFields::raw_force_y) * per_unit_mass(node, GridFields::remap_velocity_y));
-        sum += kinetic + internal;
-      },
-      work);
+  sum_in_fixed_order("boundary_work", static_cast<index_t>(fields.conditioned_node.extent(0)),
+                     BoundaryWorkSum{1, fields.state, fields.before_conditions, fields.per_unit_mass,
+                                     fields.conditioned_node, mass_threshold},
+                     &work);
   return double(dt) * work;
 }
 

@@ -230,9 +230,8 @@ ConservationTotals totals_of_particles(const ParticleState& pt, const IndexView&
   if (count == 0) return totals;
   using Sum = ParticleTotalsSum;
   double sums[Sum::num_totals] = {};
-  Kokkos::parallel_reduce("open_side_totals", Kokkos::RangePolicy<ExecutionSpace>(0, count),
-                          Sum{Sum::num_totals, pt.mass, pt.velocity_x, pt.velocity_y, pt.specific_energy, list, first},
-                          HostTotals(sums, Sum::num_totals));
+  sum_in_fixed_order("open_side_totals", count,
+                     Sum{Sum::num_totals, pt.mass, pt.velocity_x, pt.velocity_y, pt.specific_energy, list, first}, sums);
   totals.mass = sums[Sum::mass];
   totals.momentum_x = sums[Sum::momentum_x];
   totals.momentum_y = sums[Sum::momentum_y];

@@ -490,6 +490,48 @@ TEST(Blas1, SumsAndDotsAccumulateInDouble) {
   EXPECT_NEAR(dot_in_double(ones, tenths), expected, 1e-9 * expected);
 }
 
+// Two totals over particles for sum_in_fixed_chunks: sum v_k, and sum v_k^2.
+struct SumAndSquares {
+  using value_type = double[];
+  unsigned value_count = 2;
+  RealView v;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sums) const {
+    sums[0] += v(k);
+    sums[1] += double(v(k)) * v(k);
+  }
+};
+
+// sum_in_fixed_chunks (the CPUs' sums for the diagnostics and the boundaries' totals) sums each
+// chunk in index order and then the chunks in order, whatever the thread count: bitwise the
+// totals of that order on the host, over values whose sum's last bits depend on the order (a
+// plain sum in index order, which Kokkos' reduction gives on one thread, differs), for counts
+// within a chunk, on its edge and past it; and zeros for none. (Run on 1 and 2 threads by ctest.)
+TEST(Reductions, FixedChunksSumInTheirOrderOnAnyThreadCount) {
+  const index_t chunk = 100;
+  for (index_t n : {0, 1, 99, 100, 101, 1000, 12345}) {
+    const RealView v("v", n);
+    auto host = Kokkos::create_mirror_view(v);
+    for (index_t k = 0; k < n; ++k) host(k) = real_t((k % 7 == 0 ? 1e6 : 1.0) / (k + 1)) * real_t(k % 2 ? -1 : 1);
+    Kokkos::deep_copy(v, host);
+    double expected[2] = {0, 0}, in_index_order = 0;
+    for (index_t first = 0; first < n; first += chunk) {
+      double chunk_sums[2] = {0, 0};
+      for (index_t k = first; k < std::min(n, first + chunk); ++k) {
+        chunk_sums[0] += host(k);
+        chunk_sums[1] += double(host(k)) * host(k);
+        in_index_order += host(k);
+      }
+      expected[0] += chunk_sums[0];
+      expected[1] += chunk_sums[1];
+    }
+    double totals[2] = {-1, -1};  // (not 0: each must be written)
+    sum_in_fixed_chunks("test_fixed_chunks", n, chunk, SumAndSquares{2, v}, totals);
+    EXPECT_EQ(totals[0], expected[0]) << n;
+    EXPECT_EQ(totals[1], expected[1]) << n;
+    if (n == 12345) EXPECT_NE(in_index_order, expected[0]) << "values whose sum depends on the order";
+  }
+}
+
 TEST(ShapeFunctions, ColumnAndRowOfACellAreExactForLargeGrids) {
   // The multiplication that replaces the integer division, at the largest cell indices a grid of
   // 46340 x 46340 cells (2^31 cells in all) has, and at every cell of a row of a tall one.

@@ -179,11 +179,11 @@ std::vector<double> summed_where(index_t n, index_t every, LoopForm form) {
 
 // sums_over_indices_where (the particle rules' lost energy and obstacle impulses take it), both
 // forms: what the body adds for each selected index, once, and for no other (whole numbers: exact
-// in any order), into each total, over counts that end within a block of lanes and on its edge, and
-// zeros for no indices.
+// in any order), into each total, over counts that end within a block of lanes and on its edge,
+// within a chunk of sum_in_fixed_chunks and on its edge, and zeros for no indices.
 TEST(TimeStep, SumsOverIndicesWhereAddTheSelectedIndicesAlone) {
   for (const LoopForm form : {LoopForm::in_blocks, LoopForm::one_by_one})
-    for (index_t n : {0, 1, 31, 32, 33, 64, 1000})
+    for (index_t n : {0, 1, 31, 32, 33, 64, 1000, 1024, 1025, 5000})
       for (index_t every : {1, 5, 33}) {
         std::vector<double> expected(3, 0.0);
         for (index_t i = 0; i < n; i += every) expected[static_cast<size_t>(i % 3)] += double(i + 1);
