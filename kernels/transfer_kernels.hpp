@@ -87,8 +87,8 @@ void p2g_end(ScatterViewType& scatter, const NodeFieldsView& target) {
 }
 
 // Particles grouped by cell, for the GPU path (CellOrder in kernels/particle_sort.hpp builds it):
-// P2G gathered by blocks of nodes (walk_nodes_gathering), or a team of threads a tile
-// (walk_tiles_in_teams) for a body that also reads nodes or writes cells. The particles of local
+// P2G gathered by blocks of nodes (walk_nodes_gathering), G2P a thread a cell (walk_cells), or a
+// team of threads a tile (walk_tiles_in_teams) for a body that reads nodes and adds into them. The particles of local
 // cell c are particle(cell_offset(c)) .. particle(cell_offset(c + 1) - 1).
 struct ColouredCells {
   IndexView cell_offset;
@@ -427,7 +427,8 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 // The same, tile by tile: the cells are grouped in tiles and the tiles in four colours (2 x 2);
 // the tiles of one colour run in parallel, one thread per tile walking its particles in index
 // order (walk_tiles, ColouredTiles), or one team per tile (walk_tiles_in_teams, ColouredCells: the
-// GPU path, for a body that is not P2G alone: walk_nodes_gathering). A particle of cell (ci, cj)
+// GPU path, for a body that reads nodes and adds into them; P2G alone gathers, walk_nodes_gathering,
+// and G2P takes a thread a cell, walk_cells). A particle of cell (ci, cj)
 // reaches nodes ci - r + 1 .. ci + r (r = Shape::colour_period / 2), so two tiles of one colour, a
 // tile apart, share no node when the tile is wider and taller than 2 r - 2 cells. Every node's sum
 // so comes in an order fixed by the tiles and the particles' grouping alone: the same bits for any
@@ -661,9 +662,18 @@ template <class Body>
 struct OnlyWritesNodes<Body, std::void_t<typename Body::only_writes_nodes>>
     : std::is_same<decltype(std::declval<Body&>().scatter), DirectNodeAccess> {};
 
+// A body that writes no node (G2P, G2P + G2PD: it reads nodes and writes its particle, or adds into
+// its particle's cell), marked by a member type writes_no_nodes: with the particles grouped by cell
+// (ColouredCells) a thread a cell writes exclusively, without colours (walk_cells).
+template <class Body, class = void>
+struct WritesNoNodes : std::false_type {};
+template <class Body>
+struct WritesNoNodes<Body, std::void_t<typename Body::writes_no_nodes>> : std::true_type {};
+
 // What a team does with a tile of the coloured traversal on GPUs (walk_tiles_in_teams), for a body
 // that reads nodes as well as adding into them (the fused G2P + remap P2G; one that only writes
-// nodes gathers instead: walk_nodes_gathering). The team takes the tile's cells in colour_period^2
+// nodes gathers instead, walk_nodes_gathering, and one that writes none takes a thread a cell,
+// walk_cells). The team takes the tile's cells in colour_period^2
 // sub-colours, one after the other; the cells of one sub-colour, colour_period apart, share no
 // node, and a thread takes each with its particles in order, writing the node fields directly.
 // Every node's sum so comes in an order fixed by the cells and the particle order alone, as in
@@ -961,6 +971,24 @@ void walk_tiles_through_windows(const char* label, const Shape& shape, const Par
   walk_tiles_in_windows<W>(label, shape, particles, tiled, body, columns, adds);
 }
 
+// A thread per cell, its particles in order (ColouredCells), for a body that writes no node
+// (WritesNoNodes): what it adds into its particle's cell comes in the particles' order, as on a
+// team's tile (where the cells of a sub-colour took a thread each, one thread in colour_period^2
+// busy at a time), but every thread busy.
+template <class Shape, class Body>
+void walk_cells(const char* label, const Shape& shape, const ParticleLocations& particles, const ColouredCells& cells,
+                const Body& body) {
+  const RealView x = particles.x, y = particles.y;
+  const IndexView offset = cells.cell_offset, order = cells.particle;
+  Kokkos::parallel_for(
+      label, Kokkos::RangePolicy<ExecutionSpace>(0, cells.cells_x * cells.cells_y), KOKKOS_LAMBDA(const index_t c) {
+        for (index_t s = offset(c); s < offset(c + 1); ++s) {
+          const index_t p = order(s);
+          body(p, shape(p, c, x(p), y(p)));
+        }
+      });
+}
+
 // A team of threads per tile (the GPU path): TeamTile.
 template <class Shape, class Body>
 void walk_tiles_in_teams(const char* label, const Shape& shape, const ParticleLocations& particles,
@@ -990,6 +1018,8 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
                 "strips of one colour must not share a node");
   if constexpr (std::is_same<Coloured, ColouredCells>::value && OnlyWritesNodes<Body>::value)
     walk_nodes_gathering(label, shape, particles, coloured, body);
+  else if constexpr (std::is_same<Coloured, ColouredCells>::value && WritesNoNodes<Body>::value)
+    walk_cells(label, shape, particles, coloured, body);
   else if constexpr (std::is_same<Coloured, ColouredCells>::value)
     walk_tiles_in_teams(label, shape, particles, coloured, body);
   else if constexpr (StagesInWindow<Body>::value && cpu_code_paths)
@@ -1492,6 +1522,7 @@ struct P2GAndP2GDBody {
 // G2P body: value_c = sum_i F_c(node i) phi_i(X_p), handed to sink(p, value).
 template <class NodeFunctor, class ParticleSink>
 struct G2PBody {
+  using writes_no_nodes = std::true_type;  // (WritesNoNodes)
   static constexpr int N = NodeFunctor::num_components;
   NodeFunctor node_functor;
   ParticleSink sink;
@@ -1598,6 +1629,7 @@ using InterpolationsReadBy = typename InterpolationsReadByOf<Sink>::type;
 // K: the shape's stencil width (Shape::stencil_width).
 template <class NodeFunctor, class ParticleSink, int K>
 struct G2PAndG2PDBody {
+  using writes_no_nodes = std::true_type;  // (WritesNoNodes)
   static constexpr int N = NodeFunctor::num_components;
   NodeFunctor node_functor;
   ParticleSink sink;

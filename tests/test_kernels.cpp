@@ -671,6 +671,64 @@ TYPED_TEST(TransferKernels, G2PReproducesLinearNodalFieldAndGradientExactly) {
   }
 }
 
+// A G2P sink that adds its particle's interpolated value and velocity-divergence-like sum of
+// gradients into its particle's cell, as numerics/cell_averaged_strain's cell divergence does.
+template <class Access>
+struct AddIntoTheParticlesCell {
+  IndexView cell;
+  Access cells;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t p, const real_t (&value)[1], const real_t (&gradient)[1][2]) const {
+    const auto& access = cells.access();
+    access(cell(p), 0) += value[0];
+    access(cell(p), 1) += gradient[0][0] + gradient[0][1];
+  }
+};
+
+// G2P with the particles grouped by cell (ColouredCells, the GPU path, here on the CPU: a thread a
+// cell, walk_cells) and a sink adding into the particle's cell: each cell's sums are its own
+// particles' values and gradients, each once (against the same interpolations taken particle by
+// particle), over a field that varies from node to node.
+template <class MakeShape>
+void expect_g2p_by_cells_adds_each_particle_into_its_cell() {
+  const GridGeometry g = test_grid();
+  const DeviceParticles d = to_device(g, random_particles(g, 1000, 4));
+  const auto shape = MakeShape::make(g, d.count);
+  NodeFieldsView nodal("nodal", g.num_nodes(), 1);
+  auto h = Kokkos::create_mirror_view(nodal);
+  for (index_t n = 0; n < g.num_nodes(); ++n) h(n, 0) = std::sin(0.7 * double(n)) + 0.01 * double(n % 13);
+  Kokkos::deep_copy(nodal, h);
+  RealView value("value", d.count), grad_x("grad_x", d.count), grad_y("grad_y", d.count);
+  g2p_and_g2pd("test_particle_by_particle", shape, d.where, d.count, NodeColumn{nodal},
+               StoreValueAndGradient<0>{value, grad_x, grad_y});
+  const auto t = ColouredTraversal<ColouredTeams>::of(g, d);
+  NodeFieldsView cells("cells", g.num_cells(), 2);
+  g2p_and_g2pd("test_by_cells", shape, d.where, t.cells, NodeColumn{nodal},
+               AddIntoTheParticlesCell<DirectNodeAccess>{d.where.cell, DirectNodeAccess{cells}});
+  const auto hv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), value);
+  const auto hx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grad_x);
+  const auto hy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grad_y);
+  const auto hc = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), d.where.cell);
+  const auto sums = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), cells);
+  std::vector<double> expected_value(static_cast<size_t>(g.num_cells()), 0.0), expected_divergence(expected_value);
+  for (index_t p = 0; p < d.count; ++p) {
+    expected_value[static_cast<size_t>(hc(p))] += hv(p);
+    expected_divergence[static_cast<size_t>(hc(p))] += hx(p) + hy(p);
+  }
+  index_t cells_with_particles = 0;
+  for (index_t c = 0; c < g.num_cells(); ++c) {
+    cells_with_particles += expected_value[static_cast<size_t>(c)] != 0;
+    EXPECT_NEAR(sums(c, 0), expected_value[static_cast<size_t>(c)], 1e-12) << MakeShape::name << " cell " << c;
+    EXPECT_NEAR(sums(c, 1), expected_divergence[static_cast<size_t>(c)], 1e-10) << MakeShape::name << " cell " << c;
+  }
+  EXPECT_GT(cells_with_particles, g.num_cells() / 2) << "particles spread over the grid";
+}
+
+TEST(CellTraversal, G2PAddsEachParticleIntoItsCell) {
+  expect_g2p_by_cells_adds_each_particle_into_its_cell<MakeLinear>();
+  expect_g2p_by_cells_adds_each_particle_into_its_cell<MakeGimp>();
+  expect_g2p_by_cells_adds_each_particle_into_its_cell<MakeBSpline>();
+}
+
 TYPED_TEST(TransferKernels, P2GConservesMass) {
   const GridGeometry g = test_grid();
   const HostParticles p = random_particles(g, 1000, 3);
