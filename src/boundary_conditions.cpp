@@ -157,7 +157,8 @@ void apply_side_conditions(const GridGeometry& geo, const SideConditionBands& ba
         int b = 0;
         while (k >= bands.first[b + 1]) ++b;
         const IndexRange2D& band = bands.band[b];
-        const index_t i = band.i_of(k - bands.first[b]), j = band.j_of(k - bands.first[b]);
+        const index_t in_band = k - bands.first[b];  // (the node's place in its rectangle)
+        const index_t i = band.i_of(in_band), j = band.j_of(in_band);
         for (int earlier = 0; earlier < b; ++earlier)
           if (bands.band[earlier].contains(i, j)) return;  // that rectangle's thread takes the node
         const index_t node = geo.node_index(i, j);

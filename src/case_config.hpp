@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "kernels/types.hpp"
+#include "phase_timing.hpp"
 
 namespace mpmflow {
 
@@ -130,13 +131,6 @@ struct InitialStateConfig {
   GasState background;
   std::vector<Region> regions;
 };
-
-// How the phase table times a phase (PhaseTimers): `fenced` waits for the phase's kernels at its end,
-// so that each phase is charged its own work on a back-end that runs kernels asynchronously (a
-// GPU), at the price of a wait the next phase's launches cannot overlap, 18 a step; `unfenced` takes
-// the host's time in the phase, with nothing added to the step (on CPU back-ends, whose launches
-// return when their work is done, the two are the same).
-enum class PhaseTiming { fenced, unfenced };
 
 struct OutputConfig {
   std::string directory;  // default: output/<case name>

@@ -7,7 +7,7 @@
 
 #include <Kokkos_Core.hpp>
 
-#include "case_config.hpp"
+#include "phase_timing.hpp"
 
 namespace mpmflow {
 
