@@ -2,6 +2,7 @@
 // Parallel reductions over particles that are not plain BLAS-1 operations.
 #include "kernels/types.hpp"
 
+#include <string>
 #include <vector>
 
 namespace mpmflow {
@@ -27,14 +28,16 @@ void sum_in_fixed_chunks(const char* label, index_t n, index_t chunk, const Func
   if (n <= 0) return;
   const index_t chunks = (n + chunk - 1) / chunk;
   // Each chunk's sums, chunk by chunk: host memory where the execution space writes there (CPUs),
-  // not a Kokkos allocation (the benchmark counts those a step); else the device's, copied back.
+  // not a Kokkos allocation (the benchmark counts those a step); else (and on the GPU paths on the
+  // host, which so run this form) the device's, copied back.
   std::vector<double> chunk_sums(static_cast<size_t>(chunks * count));
   double* all_sums = chunk_sums.data();
   Kokkos::View<double*, MemorySpace> device_sums;
-  constexpr bool writes_host_memory = Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible;
+  constexpr bool writes_host_memory =
+      Kokkos::SpaceAccessibility<ExecutionSpace, Kokkos::HostSpace>::accessible && !gpu_code_paths_on_host;
   if constexpr (!writes_host_memory) {
-    device_sums = Kokkos::View<double*, MemorySpace>(Kokkos::view_alloc(Kokkos::WithoutInitializing, label),
-                                                     chunk_sums.size());
+    device_sums = Kokkos::View<double*, MemorySpace>(
+        Kokkos::view_alloc(Kokkos::WithoutInitializing, std::string(label)), chunk_sums.size());
     all_sums = device_sums.data();
   }
   Kokkos::parallel_for(
