@@ -37,7 +37,9 @@ struct DotInDouble {
   unsigned value_count = 1;
   XView x;
   YView y;
-  KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sum) const { sum[0] += double(x(k)) * double(y(k)); }
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t k, value_type sum) const {
+    sum[0] += double(x(k)) * double(y(k));
+  }
 };
 template <class XView>
 double sum_in_double(const XView& x) {

@@ -88,8 +88,8 @@ void p2g_end(ScatterViewType& scatter, const NodeFieldsView& target) {
 
 // Particles grouped by cell, for the GPU path (CellOrder in kernels/particle_sort.hpp builds it):
 // P2G gathered by blocks of nodes (walk_nodes_gathering), G2P a thread a cell (walk_cells), or a
-// team of threads a tile (walk_tiles_in_teams) for a body that reads nodes and adds into them. The particles of local
-// cell c are particle(cell_offset(c)) .. particle(cell_offset(c + 1) - 1).
+// team of threads a tile (walk_tiles_in_teams) for a body that reads nodes and adds into them. The
+// particles of local cell c are particle(cell_offset(c)) .. particle(cell_offset(c + 1) - 1).
 struct ColouredCells {
   IndexView cell_offset;
   IndexView particle;
@@ -424,18 +424,17 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
     for_each_particle_stencil(label, shape, particles, batches.count, body);
 }
 
-// The same, tile by tile: the cells are grouped in tiles and the tiles in four colours (2 x 2);
-// the tiles of one colour run in parallel, one thread per tile walking its particles in index
-// order (walk_tiles, ColouredTiles), or one team per tile (walk_tiles_in_teams, ColouredCells: the
-// GPU path, for a body that reads nodes and adds into them; P2G alone gathers, walk_nodes_gathering,
-// and G2P takes a thread a cell, walk_cells). A particle of cell (ci, cj)
-// reaches nodes ci - r + 1 .. ci + r (r = Shape::colour_period / 2), so two tiles of one colour, a
-// tile apart, share no node when the tile is wider and taller than 2 r - 2 cells. Every node's sum
-// so comes in an order fixed by the tiles and the particles' grouping alone: the same bits for any
-// thread count. Tiles wide along x, where the cell order runs: a tile's row is a long stretch of
-// consecutive particles (once reordered by cell), and 4 passes over the grid instead of
-// colour_period^2 for single cells. On CPUs the stencils of a tile's particles are computed in
-// batches, as for ParticleBatches.
+// The same, tile by tile: the cells are grouped in tiles and the tiles in four colours (2 x 2); the
+// tiles of one colour run in parallel, one thread per tile walking its particles in index order
+// (walk_tiles, ColouredTiles), or one team per tile (walk_tiles_in_teams, ColouredCells: the GPU
+// path, for a body that reads nodes and adds into them; P2G alone gathers, walk_nodes_gathering,
+// and G2P takes a thread a cell, walk_cells). A particle of cell (ci, cj) reaches nodes ci - r + 1
+// .. ci + r (r = Shape::colour_period / 2), so two tiles of one colour, a tile apart, share no node
+// when the tile is wider and taller than 2 r - 2 cells. Every node's sum so comes in an order fixed
+// by the tiles and the particles' grouping alone: the same bits for any thread count. Tiles wide
+// along x, where the cell order runs: a tile's row is a long stretch of consecutive particles (once
+// reordered by cell), and 4 passes over the grid instead of colour_period^2 for single cells. On
+// CPUs the stencils of a tile's particles are computed in batches, as for ParticleBatches.
 //
 // A team's tile on GPUs (ColouredCells, TeamTile): small, so that a colour has many of them.
 constexpr TileExtent team_tile{64, 4};
@@ -673,11 +672,11 @@ struct WritesNoNodes<Body, std::void_t<typename Body::writes_no_nodes>> : std::t
 // What a team does with a tile of the coloured traversal on GPUs (walk_tiles_in_teams), for a body
 // that reads nodes as well as adding into them (the fused G2P + remap P2G; one that only writes
 // nodes gathers instead, walk_nodes_gathering, and one that writes none takes a thread a cell,
-// walk_cells). The team takes the tile's cells in colour_period^2
-// sub-colours, one after the other; the cells of one sub-colour, colour_period apart, share no
-// node, and a thread takes each with its particles in order, writing the node fields directly.
-// Every node's sum so comes in an order fixed by the cells and the particle order alone, as in
-// walk_tiles (but another order than walk_tiles': the two agree to round-off).
+// walk_cells). The team takes the tile's cells in colour_period^2 sub-colours, one after the other;
+// the cells of one sub-colour, colour_period apart, share no node, and a thread takes each with its
+// particles in order, writing the node fields directly. Every node's sum so comes in an order fixed
+// by the cells and the particle order alone, as in walk_tiles (but another order than walk_tiles':
+// the two agree to round-off).
 template <class Shape, class Body>
 struct TeamTile {
   using Team = typename Kokkos::TeamPolicy<ExecutionSpace>::member_type;
