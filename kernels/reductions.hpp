@@ -20,7 +20,7 @@ using HostTotals = Kokkos::View<double*, Kokkos::HostSpace, Kokkos::MemoryTraits
 //   the threads' sums: its totals change in their last bits with the thread count, and with them
 //   a run's diagnostics.csv.) A chunk is a few hundred to a few thousand indices: enough chunks
 //   to share among the threads, few enough that the host's pass over them costs nothing.
-// - _in_kokkos (elsewhere): Kokkos' parallel_reduce, on a GPU the same order from run to run.
+// - _in_kokkos (elsewhere): Kokkos' parallel_reduce, in Kokkos' order.
 template <class Functor>
 void sum_in_fixed_chunks(const char* label, index_t n, index_t chunk, const Functor& f, double* totals) {
   const index_t count = static_cast<index_t>(f.value_count);
