@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <stdexcept>
@@ -64,6 +65,44 @@ void write_bytes(const std::string& path, const char* data, size_t size) {
   if (::close(fd) != 0) throw std::runtime_error("cannot close " + path + ": " + std::strerror(errno));
 }
 
+// The memory of HDF5's core driver, held here through its file image callbacks, so that the
+// finished file is written to disk straight from it. The driver grows it by realloc and frees it
+// when the file closes: it is freed with this object instead, after the file is closed. (A core
+// file created without an initial image calls no other callback; the others are HDF5's defaults.)
+struct CoreImage {
+  void* memory = nullptr;
+  size_t size = 0;  // bytes held
+  H5FD_file_image_callbacks_t callbacks{};
+
+  CoreImage() {
+    callbacks.image_malloc = [](size_t bytes, H5FD_file_image_op_t, void* self) {
+      return static_cast<CoreImage*>(self)->resize(nullptr, bytes);
+    };
+    callbacks.image_realloc = [](void* block, size_t bytes, H5FD_file_image_op_t, void* self) {
+      return static_cast<CoreImage*>(self)->resize(block, bytes);
+    };
+    callbacks.image_free = [](void* block, H5FD_file_image_op_t, void* self) -> herr_t {
+      if (block != static_cast<CoreImage*>(self)->memory) std::free(block);  // (not the driver's: not ours to keep)
+      return 0;
+    };
+    // The property lists copy the callbacks' user data with them: the same object throughout.
+    callbacks.udata_copy = [](void* self) { return self; };
+    callbacks.udata_free = [](void*) -> herr_t { return 0; };
+    callbacks.udata = this;
+  }
+  ~CoreImage() { std::free(memory); }
+  CoreImage(const CoreImage&) = delete;
+  CoreImage& operator=(const CoreImage&) = delete;
+
+  void* resize(void* block, size_t bytes) {
+    void* resized = std::realloc(block, bytes);
+    if (!resized) return nullptr;  // (HDF5 reports the failed allocation; `memory` is still valid)
+    memory = resized;
+    size = bytes;
+    return resized;
+  }
+};
+
 }  // namespace
 
 std::string error_reason() {
@@ -113,21 +152,27 @@ void write_file_safely(const std::string& path, const ParallelContext& context,
     // system calls. A full disk is then an error of write(2), never one of HDF5's own closing
     // writes, which leave HDF5 holding a broken file that it crashes on at exit.
     try {
+      CoreImage image;
       const hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
       H5Pset_fapl_core(fapl, 1 << 20, /*backing_store=*/0);
-      const hid_t created = H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
+      const herr_t kept = H5Pset_file_image_callbacks(fapl, &image.callbacks);
+      const hid_t created = kept < 0 ? -1 : H5Fcreate(temporary.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, fapl);
       const std::string message = created < 0 ? failure("create " + temporary + " in memory") : "";
       H5Pclose(fapl);
       if (created < 0) throw std::runtime_error(message);
       Handle file(created, H5Fclose, "create " + temporary);
       fill(file);
       if (H5Fflush(file, H5F_SCOPE_GLOBAL) < 0) throw std::runtime_error(failure("flush " + temporary));
+      // The file's length; closed, its bytes are the first `size` of the driver's memory, the same
+      // as H5Fget_file_image copies out of the open file (whose copy had held a second image of the
+      // file, as large as the particles' fields, while the first was still held).
       const ssize_t size = H5Fget_file_image(file, nullptr, 0);
       if (size < 0) throw std::runtime_error(failure("image of " + temporary));
-      std::vector<char> image(static_cast<size_t>(size));
-      if (H5Fget_file_image(file, image.data(), image.size()) < 0) throw std::runtime_error(failure("image of " + temporary));
       file.close("close " + temporary);
-      write_bytes(temporary, image.data(), image.size());
+      if (static_cast<size_t>(size) > image.size)
+        throw std::runtime_error("HDF5: image of " + temporary + ": " + std::to_string(size) + " bytes, of which " +
+                                 std::to_string(image.size) + " held");
+      write_bytes(temporary, static_cast<const char*>(image.memory), static_cast<size_t>(size));
     } catch (const std::exception& e) {
       error = e.what();
     }

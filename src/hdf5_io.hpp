@@ -161,6 +161,39 @@ void write_block(hid_t parent, const char* name, const std::vector<hsize_t>& glo
     throw std::runtime_error(failure(std::string("write dataset ") + name));
 }
 
+// Dataset `name` of `rows` x `components` values, each `fill` until written (HDF5 writes the fill
+// value as it allocates the dataset), whose columns write_column then writes one at a time: from
+// each field's own array, without a table of them all copied together first. Collective.
+template <class T>
+hid_t create_table(hid_t parent, const char* name, hsize_t rows, hsize_t components, T fill) {
+  const hsize_t dims[2] = {rows, components};
+  Handle space(H5Screate_simple(2, dims, nullptr), H5Sclose, std::string("dataspace of ") + name);
+  Handle creation(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, std::string("creation list of ") + name);
+  if (H5Pset_fill_value(creation, type_of<T>(), &fill) < 0 || H5Pset_fill_time(creation, H5D_FILL_TIME_ALLOC) < 0)
+    throw std::runtime_error(failure(std::string("set the fill value of ") + name));
+  return H5Dcreate2(parent, name, type_of<T>(), space, H5P_DEFAULT, creation, H5P_DEFAULT);
+}
+
+// Column `column` of the table `set` (create_table, `name`): this rank writes its rows [first,
+// first + count) from `data`, count values one after another (possibly none). Collective.
+template <class T>
+void write_column(hid_t set, const char* name, hsize_t column, hsize_t first, hsize_t count, const T* data,
+                  const ParallelContext& context) {
+  Handle file_space(H5Dget_space(set), H5Sclose, std::string("dataspace of ") + name);
+  Handle memory_space(H5Screate_simple(1, &count, nullptr), H5Sclose, "memory dataspace");
+  if (count == 0) {
+    H5Sselect_none(file_space);
+    H5Sselect_none(memory_space);
+  } else {
+    const hsize_t start[2] = {first, column}, block[2] = {count, 1};
+    if (H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, nullptr, block, nullptr) < 0)
+      throw std::runtime_error(failure(std::string("select a column of dataset ") + name));
+  }
+  Handle dxpl(transfer(context), H5Pclose, "transfer list");
+  if (H5Dwrite(set, type_of<T>(), memory_space, file_space, dxpl, data) < 0)
+    throw std::runtime_error(failure(std::string("write dataset ") + name));
+}
+
 // Dataset `name` of `global_rows` rows of `components` values (1: a 1D dataset), holding a 2D
 // array of rows `row_length` long flattened row after row; this rank writes `num_rows` runs of
 // `run_length` rows from row `first`, one run every `row_length` rows (a rectangle of the 2D

@@ -26,13 +26,23 @@ with h5py.File(stem + ".h5", "r") as f:
     n = f["particles/id"].shape[0]
     check(np.array_equal(particles.points, f["particles/position"][()]), f"meshio particles: {len(particles.points)} points")
     check([(c.type, len(c.data)) for c in particles.cells] == [("vertex", n)], f"meshio particles: {n} vertex cells")
+    # The tables written column by column: x and y in the grid's extent (the domain is twice as wide
+    # as high), the velocity's z its fill value.
+    g = f["grid"]
+    position, velocity = f["particles/position"][()], f["particles/velocity"][()]
+    for axis, column in (("x", 0), ("y", 1)):
+        lo = g.attrs[f"origin_{axis}"]
+        hi = lo + (int(g.attrs[f"nodes_{axis}"]) - 1) * g.attrs[f"spacing_{axis}"]
+        check(position.shape == (n, 2) and lo <= position[:, column].min() and position[:, column].max() <= hi,
+              f"particles: {axis} in [{lo}, {hi}]")
+    check(velocity.shape == (n, 3) and np.all(velocity[:, 2] == 0) and np.any(velocity[:, 0] != 0),
+          "particles: velocity (N, 3), z = 0")
     for name in f["particles"]:
         if name in ("position", "vertices"):
             continue
         check(name in particles.point_data and np.array_equal(particles.point_data[name], f["particles"][name][()]),
               f"meshio particles: {name}")
     grid = meshio.read(stem + "_grid.xmf")
-    g = f["grid"]
     nx, ny = int(g.attrs["nodes_x"]), int(g.attrs["nodes_y"])
     check(grid.points.shape == (nx * ny, 2), f"meshio grid: {grid.points.shape[0]} nodes for {nx} x {ny}")
     check(np.allclose(grid.points[nx + 1], [g.attrs["origin_x"] + g.attrs["spacing_x"],
