@@ -6,17 +6,16 @@
 
 namespace mpmflow {
 
-ConservationTotals DiagnosticsCalculator::compute(const ParticleState& particles) {
+ConservationTotals particle_totals(const ParticleState& particles) {
   ConservationTotals totals;
   if (particles.count == 0) return totals;
-  if (static_cast<index_t>(scratch_.extent(0)) < particles.count)
-    Kokkos::realloc(scratch_, particles.count);
   const auto range = std::make_pair(index_t(0), particles.count);
   const auto m = Kokkos::subview(particles.mass, range);
   const auto vx = Kokkos::subview(particles.velocity_x, range);
   const auto vy = Kokkos::subview(particles.velocity_y, range);
   const auto e = Kokkos::subview(particles.specific_energy, range);
-  const auto mv = Kokkos::subview(scratch_, range);
+  const RealView mv(Kokkos::view_alloc(Kokkos::WithoutInitializing, std::string("diagnostics_momentum")),
+                    particles.count);  // M Vx, then M Vy
 
   totals.mass = blas_sum(m);
   totals.internal_energy = blas_dot(m, e);          // sum M e

@@ -80,14 +80,10 @@ struct BoundaryFluxes {
   }
 };
 
-class DiagnosticsCalculator {
- public:
-  explicit DiagnosticsCalculator(index_t capacity) : scratch_("diagnostics_scratch", capacity) {}
-  ConservationTotals compute(const ParticleState& particles);
-
- private:
-  RealView scratch_;  // M .* V, reused by every call
-};
+// The conservation totals of this rank's particles (BLAS-1 sums, kernels/blas1.hpp). Taken at the
+// start, at each snapshot and at the end: its products M Vx and M Vy take a particle field's room
+// only while it runs (kept from call to call, they had held 8 B a particle for the whole run).
+ConservationTotals particle_totals(const ParticleState& particles);
 
 // Named columns of diagnostics.csv and the snapshots' /diagnostics beyond the totals and fluxes.
 using DiagnosticColumns = std::vector<std::pair<std::string, double>>;

@@ -149,8 +149,8 @@ void check_case_supported(const CaseConfig& config) {
 namespace {
 
 // Conservation totals over all ranks.
-ConservationTotals global_totals(DiagnosticsCalculator& diagnostics, const Solver& solver) {
-  ConservationTotals totals = diagnostics.compute(solver.particles());
+ConservationTotals global_totals(const Solver& solver) {
+  ConservationTotals totals = particle_totals(solver.particles());
   std::vector<double> values;
   totals.for_each_total([&](const char*, double value) { values.push_back(value); });
   solver.context().sum_in_place(values.data(), static_cast<int>(values.size()));
@@ -276,7 +276,6 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     solver.splitting().restore(restart.clock.particle_splits);
   }
   const bool open_sides = config.boundaries.any_open();
-  DiagnosticsCalculator diagnostics(solver.particles().count);
   const long long n = solver.global_particle_count();
   if (n == 0)
     throw ConfigError(config.source + ": no gas in the domain: the obstacles (/obstacles) cover every particle's " +
@@ -391,7 +390,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 #endif
   };
 
-  const ConservationTotals start_totals = global_totals(diagnostics, solver);
+  const ConservationTotals start_totals = global_totals(solver);
   summary.initial_totals = restarting ? restart.clock.initial_totals : start_totals;
   print_totals(log, restarting ? "restart" : "t = 0", start_totals, summary.initial_totals, global_fluxes(solver),
                open_sides);
@@ -423,7 +422,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
       if (snapshots > 0) {
         msg << "; the last good state is output " << next_snapshot - 1 << ", the failed state output "
             << next_snapshot << " in " << config.output.directory;
-        write_output(t, global_totals(diagnostics, solver), global_fluxes(solver));
+        write_output(t, global_totals(solver), global_fluxes(solver));
       }
       throw CollectiveError(msg.str());
     }
@@ -449,7 +448,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
           << describe_slabs(b.decomposition) << std::setprecision(6) << std::endl;
     }
     if (snapshots > 0 && t == target) {
-      const ConservationTotals totals = global_totals(diagnostics, solver);
+      const ConservationTotals totals = global_totals(solver);
       const BoundaryFluxes fluxes = global_fluxes(solver);
       print_totals(log, ("t = " + std::to_string(t)).c_str(), totals, summary.initial_totals, fluxes, open_sides);
       write_output(t, totals, fluxes);
@@ -487,7 +486,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
     }
   }
 
-  summary.final_totals = global_totals(diagnostics, solver);
+  summary.final_totals = global_totals(solver);
   summary.final_fluxes = global_fluxes(solver);
   if (!summary.stopped_by.empty()) {
     // Stopped early: a checkpoint to continue from, and no snapshot off the schedule.

@@ -70,13 +70,11 @@ SodResult run_sod(const CaseConfig& config) {
   SodResult r;
   {
     const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
-    DiagnosticsCalculator diagnostics(0);
-    r.initial = diagnostics.compute(create_initial_particles(config, slab));
+    r.initial = particle_totals(create_initial_particles(config, slab));
     r.cell_size = slab.geometry.spacing_x;
   }
   const auto solver = run_to_end(config);
-  DiagnosticsCalculator diagnostics(solver->particles().count);
-  r.final = diagnostics.compute(solver->particles());
+  r.final = particle_totals(solver->particles());
   r.steps = solver->step_count();
   r.particles = solver->particles().count;
 

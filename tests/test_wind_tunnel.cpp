@@ -1139,12 +1139,11 @@ TEST(WindTunnel, SubsonicFarFieldLetsGasInAndOut) {
       "far_field.json");
   const GridSlab slab = make_grid_slab(config.domain, 0, 40);
   Solver solver(config, slab, create_initial_particles(config, slab));
-  DiagnosticsCalculator diagnostics(solver.particles().count);
-  const double initial_mass = diagnostics.compute(solver.particles()).mass;
+  const double initial_mass = particle_totals(solver.particles()).mass;
   const index_t n = solver.particles().count;
   double t = 0;
   while (t < 2) t = solver.step_towards(t, 2.0);
-  const double mass = diagnostics.compute(solver.particles()).mass;
+  const double mass = particle_totals(solver.particles()).mass;
   const BoundaryFluxes& fluxes = solver.open_sides().fluxes();
   const HostParticles h = to_host(solver);
   double p = 0, vx = 0, y_min = 2;
@@ -1187,8 +1186,7 @@ TEST(WindTunnel, FarFieldAlongTheFlowKeepsTheFreeStream) {
   regular.particles.placement = ParticlePlacement::regular;
   const GridSlab slab = make_grid_slab(regular.domain, 0, 40);
   Solver solver(regular, slab, create_initial_particles(regular, slab));
-  DiagnosticsCalculator diagnostics(solver.particles().count);
-  const double initial_mass = diagnostics.compute(solver.particles()).mass;
+  const double initial_mass = particle_totals(solver.particles()).mass;
   // Mass per unit area and mean pressure in the cell rows along the sides and in the middle.
   constexpr int rows = 20;  // 0.1 high each
   const std::vector<double> times = {1.5, 2.0, 2.5, 3.0};
@@ -1196,7 +1194,7 @@ TEST(WindTunnel, FarFieldAlongTheFlowKeepsTheFreeStream) {
   double t = 0, p = 0, mass = 0;
   for (double target : times) {
     while (t < target) t = solver.step_towards(t, target);
-    mass = diagnostics.compute(solver.particles()).mass;
+    mass = particle_totals(solver.particles()).mass;
     const HostParticles h = to_host(solver);
     auto particle_mass = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), solver.particles().mass);
     std::vector<double> sum_p(rows), count(rows);
@@ -1264,8 +1262,7 @@ TEST(WindTunnel, CoarseCylinderInvariantsAndBowShock) {
   const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
   Solver solver(config, slab, create_initial_particles(config, slab));
   const HostObstacleSet cylinder = make_host_obstacle_set(config.obstacles);
-  DiagnosticsCalculator diagnostics(solver.particles().count);
-  const double initial_mass = diagnostics.compute(solver.particles()).mass;
+  const double initial_mass = particle_totals(solver.particles()).mass;
   double t = 0;
   const double end = 2.0;
   long violations = 0;
@@ -1274,7 +1271,7 @@ TEST(WindTunnel, CoarseCylinderInvariantsAndBowShock) {
     t = solver.step_towards(t, end);
     if (solver.step_count() % 10 != 0 && t < end) continue;  // checked every 10 steps and at the end
     const BoundaryFluxes& fluxes = solver.open_sides().fluxes();
-    const double balance = diagnostics.compute(solver.particles()).mass - initial_mass - fluxes.entered.mass +
+    const double balance = particle_totals(solver.particles()).mass - initial_mass - fluxes.entered.mass +
                            fluxes.left.mass;
     worst_balance = std::max(worst_balance, std::fabs(balance) / initial_mass);
     const HostParticles h = to_host(solver);
@@ -1381,11 +1378,10 @@ FreeStreamNoise free_stream_noise(bool remedies, bool cell_averaged_strain, P2GS
   config.numerics.p2g = p2g;
   const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
   Solver solver(config, slab, create_initial_particles(config, slab));
-  DiagnosticsCalculator diagnostics(solver.particles().count);
-  const ConservationTotals initial = diagnostics.compute(solver.particles());
+  const ConservationTotals initial = particle_totals(solver.particles());
   double t = 0;
   while (t < 1.5) t = solver.step_towards(t, 1.5);
-  const ConservationTotals now = diagnostics.compute(solver.particles());
+  const ConservationTotals now = particle_totals(solver.particles());
   const BoundaryFluxes& f = solver.open_sides().fluxes();
   const double residual = now.total_energy() - initial.total_energy() - f.entered.total_energy() +
                           f.left.total_energy() - f.boundary_work + f.kinetic_energy_stopped;
