@@ -5,6 +5,7 @@
 #ifdef MPMFLOW_HAVE_HDF5
 #include <hdf5.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -161,37 +162,40 @@ void write_block(hid_t parent, const char* name, const std::vector<hsize_t>& glo
     throw std::runtime_error(failure(std::string("write dataset ") + name));
 }
 
-// Dataset `name` of `rows` x `components` values, each `fill` until written (HDF5 writes the fill
-// value as it allocates the dataset), whose columns write_column then writes one at a time: from
-// each field's own array, without a table of them all copied together first. Collective.
-template <class T>
-hid_t create_table(hid_t parent, const char* name, hsize_t rows, hsize_t components, T fill) {
-  const hsize_t dims[2] = {rows, components};
-  Handle space(H5Screate_simple(2, dims, nullptr), H5Sclose, std::string("dataspace of ") + name);
-  Handle creation(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, std::string("creation list of ") + name);
-  if (H5Pset_fill_value(creation, type_of<T>(), &fill) < 0 || H5Pset_fill_time(creation, H5D_FILL_TIME_ALLOC) < 0)
-    throw std::runtime_error(failure(std::string("set the fill value of ") + name));
-  return H5Dcreate2(parent, name, type_of<T>(), space, H5P_DEFAULT, creation, H5P_DEFAULT);
-}
-
-// Column `column` of the table `set` (create_table, `name`): this rank writes its rows [first,
-// first + count) from `data`, count values one after another (possibly none). Collective.
-template <class T>
-void write_column(hid_t set, const char* name, hsize_t column, hsize_t first, hsize_t count, const T* data,
-                  const ParallelContext& context) {
-  Handle file_space(H5Dget_space(set), H5Sclose, std::string("dataspace of ") + name);
-  Handle memory_space(H5Screate_simple(1, &count, nullptr), H5Sclose, "memory dataspace");
-  if (count == 0) {
-    H5Sselect_none(file_space);
-    H5Sselect_none(memory_space);
-  } else {
-    const hsize_t start[2] = {first, column}, block[2] = {count, 1};
-    if (H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, nullptr, block, nullptr) < 0)
-      throw std::runtime_error(failure(std::string("select a column of dataset ") + name));
-  }
+// Dataset `name` of `global_rows` rows of `components` values (1: a 1D dataset); this rank writes
+// its rows [first, first + count), row k's values made by row(k, values) (k from 0), through a
+// buffer of at most `piece_rows` rows, piece after piece: a table made from several fields (the
+// particles' positions, their velocities) is never copied out whole. Each rank writes as many
+// pieces as the rank with the most rows (the others' last are empty): the writes are collective.
+template <class T, class RowValues>
+void write_rows_in_pieces(hid_t parent, const char* name, hsize_t global_rows, hsize_t components, hsize_t first,
+                          hsize_t count, const RowValues& row, const ParallelContext& context,
+                          hsize_t piece_rows = 1 << 16) {
+  const int rank = components > 1 ? 2 : 1;
+  const hsize_t global_dims[2] = {global_rows, components};
+  Handle file_space(H5Screate_simple(rank, global_dims, nullptr), H5Sclose, std::string("dataspace of ") + name);
+  Handle set(H5Dcreate2(parent, name, type_of<T>(), file_space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose,
+             std::string("create dataset ") + name);
   Handle dxpl(transfer(context), H5Pclose, "transfer list");
-  if (H5Dwrite(set, type_of<T>(), memory_space, file_space, dxpl, data) < 0)
-    throw std::runtime_error(failure(std::string("write dataset ") + name));
+  const double my_pieces = double((count + piece_rows - 1) / piece_rows);
+  const hsize_t pieces = static_cast<hsize_t>(context.max(my_pieces));
+  std::vector<T> buffer(static_cast<size_t>(std::max<hsize_t>(1, std::min(count, piece_rows)) * components));
+  for (hsize_t piece = 0; piece < pieces; ++piece) {
+    const hsize_t begin = std::min(count, piece * piece_rows), end = std::min(count, begin + piece_rows);
+    const hsize_t elements[2] = {end - begin, components};
+    Handle memory_space(H5Screate_simple(rank, elements, nullptr), H5Sclose, "memory dataspace");
+    if (end == begin) {
+      H5Sselect_none(file_space);
+      H5Sselect_none(memory_space);
+    } else {
+      for (hsize_t k = begin; k < end; ++k) row(k, &buffer[static_cast<size_t>((k - begin) * components)]);
+      const hsize_t start[2] = {first + begin, 0};
+      if (H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, nullptr, elements, nullptr) < 0)
+        throw std::runtime_error(failure(std::string("select rows of dataset ") + name));
+    }
+    if (H5Dwrite(set, type_of<T>(), memory_space, file_space, dxpl, buffer.data()) < 0)
+      throw std::runtime_error(failure(std::string("write dataset ") + name));
+  }
 }
 
 // Dataset `name` of `global_rows` rows of `components` values (1: a 1D dataset), holding a 2D

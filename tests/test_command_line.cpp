@@ -223,6 +223,36 @@ TEST_F(CommandLine, FilesNameTheBuildThatWroteThem) {
     EXPECT_EQ(h5::read_string_attribute(h, "mpmflow_build"), mpmflow::build_identity()) << file;
   }
 }
+
+// A table written piece by piece (the snapshots' positions, velocities and vertices) holds each of
+// this rank's rows in order at its place: pieces of 4 rows here, a last one of 2, and a rank with
+// no rows writes an empty dataset.
+TEST(Hdf5Files, RowsWrittenInPiecesAreTheRowsInOrder) {
+  namespace h5 = mpmflow::h5;
+  const mpmflow::ParallelContext context = mpmflow::ParallelContext::self();
+  const fs::path path = fs::temp_directory_path() / ("mpmflow_rows_" + std::to_string(getpid()) + ".h5");
+  const auto row_values = [](hsize_t k, double* row) {
+    row[0] = double(k);
+    row[1] = 10.0 * k;
+    row[2] = 100.0 * k;
+  };
+  h5::write_file_safely(path.string(), context, [&](hid_t file) {
+    h5::write_rows_in_pieces<double>(file, "table", 17, 3, 5, 10, row_values, context, 4);
+    h5::write_rows_in_pieces<long long>(file, "empty", 0, 1, 0, 0, [](hsize_t, long long*) {}, context, 4);
+  });
+  h5::Handle file(h5::open_file_here(path.string()), H5Fclose, "open " + path.string());
+  h5::Handle table(H5Dopen2(file, "table", H5P_DEFAULT), H5Dclose, "open table");
+  std::vector<double> values(17 * 3, -1.0);
+  ASSERT_GE(H5Dread(table, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), 0);
+  for (int k = 0; k < 10; ++k)
+    for (int c = 0; c < 3; ++c) {
+      double expected[3];
+      row_values(hsize_t(k), expected);
+      EXPECT_EQ(values[size_t((5 + k) * 3 + c)], expected[c]) << "row " << 5 + k << ", column " << c;
+    }
+  EXPECT_EQ(h5::dataset_length(file, "empty"), 0u);
+  fs::remove(path);
+}
 #endif
 
 // A case whose speeds make the time step absurdly small stops at once, naming the particle that

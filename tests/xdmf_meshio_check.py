@@ -26,8 +26,8 @@ with h5py.File(stem + ".h5", "r") as f:
     n = f["particles/id"].shape[0]
     check(np.array_equal(particles.points, f["particles/position"][()]), f"meshio particles: {len(particles.points)} points")
     check([(c.type, len(c.data)) for c in particles.cells] == [("vertex", n)], f"meshio particles: {n} vertex cells")
-    # The tables written column by column: x and y in the grid's extent (the domain is twice as wide
-    # as high), the velocity's z its fill value.
+    # The tables made from the fields piece by piece: x and y in the grid's extent (the domain is
+    # twice as wide as high), the velocity's z 0.
     g = f["grid"]
     position, velocity = f["particles/position"][()], f["particles/velocity"][()]
     for axis, column in (("x", 0), ("y", 1)):
