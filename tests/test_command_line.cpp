@@ -225,8 +225,9 @@ TEST_F(CommandLine, FilesNameTheBuildThatWroteThem) {
 }
 
 // A table written piece by piece (the snapshots' positions, velocities and vertices) holds each of
-// this rank's rows in order at its place: pieces of 4 rows here, a last one of 2, and a rank with
-// no rows writes an empty dataset.
+// this rank's rows in order at its place: pieces of 4 rows here, a last one of 2; and a table of no
+// rows is written empty. (Two ranks of unequal rows write them in Output.XdmfInParaViewAndMeshio and
+// Robustness.FullDiskLosesNothing.)
 TEST(Hdf5Files, RowsWrittenInPiecesAreTheRowsInOrder) {
   namespace h5 = mpmflow::h5;
   const mpmflow::ParallelContext context = mpmflow::ParallelContext::self();
