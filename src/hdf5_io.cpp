@@ -95,7 +95,9 @@ struct CoreImage {
   CoreImage& operator=(const CoreImage&) = delete;
 
   void* resize(void* block, size_t bytes) {
-    void* resized = std::realloc(block, bytes);
+    // (Never to 0 bytes: realloc would free the block and answer null, which HDF5 takes for a
+    // failure, and `memory` would name freed memory.)
+    void* resized = std::realloc(block, bytes > 0 ? bytes : 1);
     if (!resized) return nullptr;  // (HDF5 reports the failed allocation; `memory` is still valid)
     memory = resized;
     size = bytes;
