@@ -147,6 +147,24 @@ void write_particle_field(hid_t group, const char* name, const ViewType& view, i
   h5::write_block(group, name, {total}, {offset}, {static_cast<hsize_t>(count)}, host.data(), context);
 }
 
+// A particle vector of every rank from its two fields, one (N, components) dataset in rank order,
+// rows [x, y, 0 ...] made piece by piece (h5::write_rows_in_pieces): a table of them made whole
+// first had held its 16 or 24 B a particle more while the file was built.
+void write_particle_vectors(hid_t group, const char* name, hsize_t components, const RealView& x_field,
+                            const RealView& y_field, index_t count, hsize_t offset, hsize_t total,
+                            const ParallelContext& context) {
+  const auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), x_field);
+  const auto y = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), y_field);
+  h5::write_rows_in_pieces<real_t>(
+      group, name, total, components, offset, static_cast<hsize_t>(count),
+      [&](hsize_t k, real_t* row) {
+        row[0] = x(k);
+        row[1] = y(k);
+        for (hsize_t c = 2; c < components; ++c) row[c] = 0;
+      },
+      context);
+}
+
 }  // namespace
 
 SnapshotWriter::SnapshotWriter(std::string directory, std::string case_name, const ParallelContext& context,
@@ -248,36 +266,12 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
     {
       Handle group(H5Gcreate2(file, "particles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
                    "create group particles");
-      // The positions (N, 2), the velocities (N, 3) and the vertices made from the fields piece by
-      // piece (h5::write_rows_in_pieces): tables of them all made first had held 48 B a particle
-      // more while the file was built.
-      const hsize_t count = static_cast<hsize_t>(n);
-      {
-        const auto x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.position_x);
-        const auto y = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.position_y);
-        h5::write_rows_in_pieces<real_t>(
-            group, "position", total, 2, offset, count,
-            [&](hsize_t k, real_t* row) {
-              row[0] = x(k);
-              row[1] = y(k);
-            },
-            context_);
-      }
-      {
-        const auto vx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.velocity_x);
-        const auto vy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pt.velocity_y);
-        h5::write_rows_in_pieces<real_t>(
-            group, "velocity", total, 3, offset, count,
-            [&](hsize_t k, real_t* row) {
-              row[0] = vx(k);
-              row[1] = vy(k);
-              row[2] = 0;
-            },
-            context_);
-      }
+      // The positions (N, 2) and the velocities (N, 3, z = 0), and the vertices, made piece by piece.
+      write_particle_vectors(group, "position", 2, pt.position_x, pt.position_y, n, offset, total, context_);
+      write_particle_vectors(group, "velocity", 3, pt.velocity_x, pt.velocity_y, n, offset, total, context_);
       // Particle k is vertex cell k: without cells, ParaView's XDMF 3 reader shows no particles.
       h5::write_rows_in_pieces<long long>(
-          group, "vertices", total, 1, offset, count,
+          group, "vertices", total, 1, offset, static_cast<hsize_t>(n),
           [&](hsize_t k, long long* row) { row[0] = static_cast<long long>(offset + k); }, context_);
       for_each_snapshot_particle_field(pt, particle_pressure(pt, solver.config().physics.gamma),
                                        [&](const char* name, const auto& view) {
