@@ -162,35 +162,46 @@ void write_block(hid_t parent, const char* name, const std::vector<hsize_t>& glo
     throw std::runtime_error(failure(std::string("write dataset ") + name));
 }
 
-// Dataset `name` of `global_rows` rows of `components` values (1: a 1D dataset); this rank writes
-// its rows [first, first + count), row k's values made by row(k, values) (k from 0), through a
-// buffer of at most `piece_rows` rows, piece after piece: a table made from several fields (the
-// particles' positions, their velocities) is never copied out whole. Each rank writes as many
-// pieces as the rank with the most rows (the others' last are empty): the writes are collective.
+// Dataset `name` of `global_rows` rows of `components` values (1: a 1D dataset), holding a 2D
+// array of rows `row_length` long flattened row after row; this rank writes a rectangle of it:
+// `num_runs` runs of `run_length` rows from row `first`, one run every `row_length` rows (x
+// fastest). The k-th row of the rectangle (k from 0, run after run) is made by row(k, values),
+// through a buffer of at most `piece_rows` rows (whole runs, at least one), piece after piece: a
+// table made from several fields (the particles' positions, the grid's averages) is never copied
+// out whole. Each rank writes as many pieces as the rank with the most (the others' last are
+// empty): the writes are collective.
 template <class T, class RowValues>
-void write_rows_in_pieces(hid_t parent, const char* name, hsize_t global_rows, hsize_t components, hsize_t first,
-                          hsize_t count, const RowValues& row, const ParallelContext& context,
-                          hsize_t piece_rows = 1 << 16) {
+void write_rectangle_in_pieces(hid_t parent, const char* name, hsize_t global_rows, hsize_t components,
+                               hsize_t first, hsize_t run_length, hsize_t num_runs, hsize_t row_length,
+                               const RowValues& row, const ParallelContext& context, hsize_t piece_rows = 1 << 16) {
   const int rank = components > 1 ? 2 : 1;
   const hsize_t global_dims[2] = {global_rows, components};
   Handle file_space(H5Screate_simple(rank, global_dims, nullptr), H5Sclose, std::string("dataspace of ") + name);
   Handle set(H5Dcreate2(parent, name, type_of<T>(), file_space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose,
              std::string("create dataset ") + name);
   Handle dxpl(transfer(context), H5Pclose, "transfer list");
-  const double my_pieces = double((count + piece_rows - 1) / piece_rows);
+  if (run_length == 0) num_runs = 0;
+  const hsize_t runs_a_piece = std::max<hsize_t>(1, piece_rows / std::max<hsize_t>(1, run_length));
+  const double my_pieces = double((num_runs + runs_a_piece - 1) / runs_a_piece);
   const hsize_t pieces = static_cast<hsize_t>(context.max(my_pieces));
-  std::vector<T> buffer(static_cast<size_t>(std::max<hsize_t>(1, std::min(count, piece_rows)) * components));
+  std::vector<T> buffer(
+      static_cast<size_t>(std::max<hsize_t>(1, std::min(num_runs, runs_a_piece) * run_length) * components));
   for (hsize_t piece = 0; piece < pieces; ++piece) {
-    const hsize_t begin = std::min(count, piece * piece_rows), end = std::min(count, begin + piece_rows);
-    const hsize_t elements[2] = {end - begin, components};
+    const hsize_t run_begin = std::min(num_runs, piece * runs_a_piece);
+    const hsize_t run_end = std::min(num_runs, run_begin + runs_a_piece);
+    const hsize_t elements[2] = {(run_end - run_begin) * run_length, components};
     Handle memory_space(H5Screate_simple(rank, elements, nullptr), H5Sclose, "memory dataspace");
-    if (end == begin) {
+    if (elements[0] == 0) {
       H5Sselect_none(file_space);
       H5Sselect_none(memory_space);
     } else {
-      for (hsize_t k = begin; k < end; ++k) row(k, &buffer[static_cast<size_t>((k - begin) * components)]);
-      const hsize_t start[2] = {first + begin, 0};
-      if (H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, nullptr, elements, nullptr) < 0)
+      const hsize_t k_begin = run_begin * run_length;
+      for (hsize_t k = k_begin; k < run_end * run_length; ++k)
+        row(k, &buffer[static_cast<size_t>((k - k_begin) * components)]);
+      // (Runs that follow each other, as rows of one value each do, HDF5 takes as one block.)
+      const hsize_t start[2] = {first + run_begin * row_length, 0}, stride[2] = {row_length, 1},
+                    count[2] = {run_end - run_begin, 1}, block[2] = {run_length, components};
+      if (H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, stride, count, block) < 0)
         throw std::runtime_error(failure(std::string("select rows of dataset ") + name));
     }
     if (H5Dwrite(set, type_of<T>(), memory_space, file_space, dxpl, buffer.data()) < 0)
@@ -198,33 +209,13 @@ void write_rows_in_pieces(hid_t parent, const char* name, hsize_t global_rows, h
   }
 }
 
-// Dataset `name` of `global_rows` rows of `components` values (1: a 1D dataset), holding a 2D
-// array of rows `row_length` long flattened row after row; this rank writes `num_rows` runs of
-// `run_length` rows from row `first`, one run every `row_length` rows (a rectangle of the 2D
-// array, x fastest), from `data`, the runs one after another. Collective.
-template <class T>
-void write_rectangle_rows(hid_t parent, const char* name, hsize_t global_rows, hsize_t components, hsize_t first,
-                          hsize_t run_length, hsize_t num_rows, hsize_t row_length, const T* data,
-                          const ParallelContext& context) {
-  const int rank = components > 1 ? 2 : 1;
-  const hsize_t global_dims[2] = {global_rows, components};
-  Handle file_space(H5Screate_simple(rank, global_dims, nullptr), H5Sclose, std::string("dataspace of ") + name);
-  Handle set(H5Dcreate2(parent, name, type_of<T>(), file_space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose,
-             std::string("create dataset ") + name);
-  const hsize_t elements[2] = {run_length * num_rows, components};
-  Handle memory_space(H5Screate_simple(rank, elements, nullptr), H5Sclose, "memory dataspace");
-  if (elements[0] == 0) {
-    H5Sselect_none(file_space);
-    H5Sselect_none(memory_space);
-  } else {
-    const hsize_t start[2] = {first, 0}, stride[2] = {row_length, 1}, count[2] = {num_rows, 1},
-                  block[2] = {run_length, components};
-    if (H5Sselect_hyperslab(file_space, H5S_SELECT_SET, start, stride, count, block) < 0)
-      throw std::runtime_error(failure(std::string("select the rows of dataset ") + name));
-  }
-  Handle dxpl(transfer(context), H5Pclose, "transfer list");
-  if (H5Dwrite(set, type_of<T>(), memory_space, file_space, dxpl, data) < 0)
-    throw std::runtime_error(failure(std::string("write dataset ") + name));
+// The same for consecutive rows (runs of one row, one a row): this rank writes rows [first, first
+// + count), row k's values (k from 0) made by row(k, values).
+template <class T, class RowValues>
+void write_rows_in_pieces(hid_t parent, const char* name, hsize_t global_rows, hsize_t components, hsize_t first,
+                          hsize_t count, const RowValues& row, const ParallelContext& context,
+                          hsize_t piece_rows = 1 << 16) {
+  write_rectangle_in_pieces<T>(parent, name, global_rows, components, first, 1, count, 1, row, context, piece_rows);
 }
 
 // A dataset written whole by every rank alike (small: attributes-like arrays).

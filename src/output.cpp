@@ -15,6 +15,7 @@
 #include <type_traits>
 
 #include "build_commit.hpp"
+#include "gas_physics.hpp"
 #include "hdf5_io.hpp"
 
 namespace mpmflow {
@@ -93,15 +94,22 @@ namespace {
 
 using h5::Handle;
 
+// The particles' pressure, which they do not store: made from their density and specific energy
+// as it is written (write_particle_field), a particle-sized View never held for it.
+struct SnapshotPressure {
+  using non_const_value_type = real_t;  // (the dataset's type, as a View's)
+  RealView density, specific_energy;
+  real_t gamma;
+};
+
 // The scalar particle fields of a snapshot, each one dataset of /particles and one XDMF
-// attribute: f(name, view) for each. The positions (the (N, 2) geometry), the velocity (an (N, 3)
-// vector, z = 0, as ParaView's glyphs and stream tracers want) and the vertex connectivity are
-// written apart. The pressure, which the particles do not store, comes computed
-// (particle_pressure); where only the names and types are read, an empty View stands for it.
+// attribute: f(name, field) for each, a View or the pressure. The positions (the (N, 2) geometry),
+// the velocity (an (N, 3) vector, z = 0, as ParaView's glyphs and stream tracers want) and the
+// vertex connectivity are written apart.
 template <class F>
-void for_each_snapshot_particle_field(const ParticleState& pt, const RealView& pressure, F&& f) {
-  f("density", pt.density), f("pressure", pressure), f("specific_energy", pt.specific_energy);
-  f("mass", pt.mass), f("id", pt.id);
+void for_each_snapshot_particle_field(const ParticleState& pt, real_t gamma, F&& f) {
+  f("density", pt.density), f("pressure", SnapshotPressure{pt.density, pt.specific_energy, gamma});
+  f("specific_energy", pt.specific_energy), f("mass", pt.mass), f("id", pt.id);
 }
 
 // One node of the grid output: the particles' state projected on it (GridFields::ProjectionColumn),
@@ -145,6 +153,15 @@ void write_particle_field(hid_t group, const char* name, const ViewType& view, i
                           hsize_t total, const ParallelContext& context) {
   auto host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
   h5::write_block(group, name, {total}, {offset}, {static_cast<hsize_t>(count)}, host.data(), context);
+}
+
+void write_particle_field(hid_t group, const char* name, const SnapshotPressure& pressure, index_t count,
+                          hsize_t offset, hsize_t total, const ParallelContext& context) {
+  const auto rho = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pressure.density);
+  const auto e = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), pressure.specific_energy);
+  h5::write_rows_in_pieces<real_t>(
+      group, name, total, 1, offset, static_cast<hsize_t>(count),
+      [&](hsize_t k, real_t* row) { row[0] = perfect_gas_pressure(pressure.gamma, rho(k), e(k)); }, context);
 }
 
 // A particle vector of every rank from its two fields, one (N, components) dataset in rank order,
@@ -273,9 +290,8 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
       h5::write_rows_in_pieces<long long>(
           group, "vertices", total, 1, offset, static_cast<hsize_t>(n),
           [&](hsize_t k, long long* row) { row[0] = static_cast<long long>(offset + k); }, context_);
-      for_each_snapshot_particle_field(pt, particle_pressure(pt, solver.config().physics.gamma),
-                                       [&](const char* name, const auto& view) {
-        write_particle_field(group, name, view, n, offset, total, context_);
+      for_each_snapshot_particle_field(pt, solver.config().physics.gamma, [&](const char* name, const auto& field) {
+        write_particle_field(group, name, field, n, offset, total, context_);
       });
     }
 
@@ -285,39 +301,40 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
       const IndexRange2D owned = slab.index_space(Ownership::owned, Entity::node, Indexing::global);
       const index_t nx = owned.extent_x(), ny = owned.extent_y();
       auto state = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), projection);
-      const size_t num_fields = sizeof(grid_snapshot_fields) / sizeof(grid_snapshot_fields[0]);
-      const size_t num_nodes = static_cast<size_t>(nx) * ny;
-      std::vector<std::vector<real_t>> values(num_fields, std::vector<real_t>(num_nodes));
-      std::vector<real_t> velocity(3 * num_nodes, real_t(0));
       const real_t threshold = solver.node_mass_threshold(), gamma = solver.config().physics.gamma;
-      for (index_t j = 0; j < ny; ++j)
-        for (index_t i = 0; i < nx; ++i) {
-          const index_t node = geo.node_index(slab.local_node_x(owned.begin_x + i), slab.local_node_y(owned.begin_y + j));
-          const NodeSample sample{state(node, GridFields::projected_mass),
-                                  state(node, GridFields::projected_momentum_x),
-                                  state(node, GridFields::projected_momentum_y),
-                                  state(node, GridFields::projected_mass_density),
-                                  state(node, GridFields::projected_mass_pressure),
-                                  state(node, GridFields::projected_mass_energy),
-                                  threshold,
-                                  gamma};
-          const size_t k = static_cast<size_t>(i + nx * j);
-          for (size_t f = 0; f < num_fields; ++f) values[f][k] = grid_snapshot_fields[f].value(sample);
-          velocity[3 * k] = sample.average(sample.momentum_x);
-          velocity[3 * k + 1] = sample.average(sample.momentum_y);
-        }
+      // The k-th node the slab owns (x fastest) as the datasets read it.
+      const auto sample = [&](hsize_t k) {
+        const index_t i = static_cast<index_t>(k % static_cast<hsize_t>(nx)), j = static_cast<index_t>(k / static_cast<hsize_t>(nx));
+        const index_t node = geo.node_index(slab.local_node_x(owned.begin_x + i), slab.local_node_y(owned.begin_y + j));
+        return NodeSample{state(node, GridFields::projected_mass),
+                          state(node, GridFields::projected_momentum_x),
+                          state(node, GridFields::projected_momentum_y),
+                          state(node, GridFields::projected_mass_density),
+                          state(node, GridFields::projected_mass_pressure),
+                          state(node, GridFields::projected_mass_energy),
+                          threshold,
+                          gamma};
+      };
       Handle group(H5Gcreate2(file, "grid", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Gclose,
                    "create group grid");
       // Flat node arrays (x fastest), as XDMF readers without co-rectilinear meshes (meshio) need
-      // them; nodes_x and nodes_y give the 2D shape.
+      // them; nodes_x and nodes_y give the 2D shape. Each made piece by piece from the projection:
+      // the tables made whole first had held 64 B a node while the file was built.
       const hsize_t global_x = static_cast<hsize_t>(slab.global_cells_x + 1);
       const hsize_t global_nodes = global_x * static_cast<hsize_t>(slab.global_cells_y + 1);
       const hsize_t first = static_cast<hsize_t>(owned.begin_x) + global_x * static_cast<hsize_t>(owned.begin_y);
-      for (size_t f = 0; f < num_fields; ++f)
-        h5::write_rectangle_rows(group, grid_snapshot_fields[f].name, global_nodes, 1, first, static_cast<hsize_t>(nx),
-                                 static_cast<hsize_t>(ny), global_x, values[f].data(), context_);
-      h5::write_rectangle_rows(group, "velocity", global_nodes, 3, first, static_cast<hsize_t>(nx),
-                               static_cast<hsize_t>(ny), global_x, velocity.data(), context_);
+      const auto write_nodes = [&](const char* name, hsize_t components, const auto& values) {
+        h5::write_rectangle_in_pieces<real_t>(group, name, global_nodes, components, first, static_cast<hsize_t>(nx),
+                                              static_cast<hsize_t>(ny), global_x,
+                                              [&](hsize_t k, real_t* row) { values(sample(k), row); }, context_);
+      };
+      for (const GridSnapshotField& field : grid_snapshot_fields)
+        write_nodes(field.name, 1, [&](const NodeSample& node, real_t* row) { row[0] = field.value(node); });
+      write_nodes("velocity", 3, [](const NodeSample& node, real_t* row) {
+        row[0] = node.average(node.momentum_x);
+        row[1] = node.average(node.momentum_y);
+        row[2] = 0;
+      });
       h5::write_attribute(group, "nodes_x", static_cast<double>(slab.global_cells_x + 1));
       h5::write_attribute(group, "nodes_y", static_cast<double>(slab.global_cells_y + 1));
       grid_nodes_x_ = slab.global_cells_x + 1;
@@ -379,8 +396,8 @@ std::string SnapshotWriter::particles_grid_xml(const Record& r, const ParticleSt
       << indent << "  " << hdf_item(n + " 2", "Float", real_size, r.file, "/particles/position") << "\n"
       << indent << " </Geometry>\n";
   xml << attribute(indent + " ", "velocity", "Vector", hdf_item(n + " 3", "Float", real_size, r.file, "/particles/velocity"));
-  for_each_snapshot_particle_field(particles, RealView(), [&](const char* field, const auto& view) {
-    using Value = typename std::decay_t<decltype(view)>::non_const_value_type;
+  for_each_snapshot_particle_field(particles, real_t(0), [&](const char* field, const auto& values) {
+    using Value = typename std::decay_t<decltype(values)>::non_const_value_type;
     xml << attribute(indent + " ", field, "Scalar",
                      hdf_item(n, xdmf_number_type<Value>(), sizeof(Value), r.file, std::string("/particles/") + field));
   });

@@ -254,6 +254,44 @@ TEST(Hdf5Files, RowsWrittenInPiecesAreTheRowsInOrder) {
   EXPECT_EQ(h5::dataset_length(file, "empty"), 0u);
   fs::remove(path);
 }
+
+// A rectangle of a 2D array of rows (the grid's nodes a slab owns, x fastest) written in pieces of
+// whole runs lands in its own rows, row by row, and nowhere else; a piece shorter than a run still
+// writes the run whole.
+TEST(Hdf5Files, ARectangleWrittenInPiecesLandsInItsRows) {
+  namespace h5 = mpmflow::h5;
+  const mpmflow::ParallelContext context = mpmflow::ParallelContext::self();
+  const fs::path path = fs::temp_directory_path() / ("mpmflow_rectangle_" + std::to_string(getpid()) + ".h5");
+  // A 6 x 5 array of rows of two values; the rectangle of 4 x 3 from (1, 1): row k of it is
+  // (1 + k % 4, 1 + k / 4) of the array.
+  const hsize_t width = 6, height = 5, run_length = 4, num_runs = 3, first = 1 + width * 1;
+  const auto row_values = [](hsize_t k, double* row) {
+    row[0] = 1.0 + double(k);
+    row[1] = -1.0 - double(k);
+  };
+  const hsize_t piece_rows[] = {9, 2};  // two runs a piece, then one (fewer rows than a run)
+  h5::write_file_safely(path.string(), context, [&](hid_t file) {
+    for (int t = 0; t < 2; ++t)
+      h5::write_rectangle_in_pieces<double>(file, ("array" + std::to_string(t)).c_str(), width * height, 2, first,
+                                            run_length, num_runs, width, row_values, context, piece_rows[t]);
+  });
+  h5::Handle file(h5::open_file_here(path.string()), H5Fclose, "open " + path.string());
+  for (int t = 0; t < 2; ++t) {
+    h5::Handle array(H5Dopen2(file, ("array" + std::to_string(t)).c_str(), H5P_DEFAULT), H5Dclose, "open array");
+    std::vector<double> values(width * height * 2, -99.0);
+    ASSERT_GE(H5Dread(array, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), 0);
+    for (hsize_t j = 0; j < height; ++j)
+      for (hsize_t i = 0; i < width; ++i) {
+        const bool inside = i >= 1 && i < 1 + run_length && j >= 1 && j < 1 + num_runs;
+        double expected[2] = {0.0, 0.0};  // (HDF5's fill value)
+        if (inside) row_values((i - 1) + run_length * (j - 1), expected);
+        for (int c = 0; c < 2; ++c)
+          EXPECT_EQ(values[(i + width * j) * 2 + c], expected[c])
+              << "pieces of " << piece_rows[t] << " rows: node (" << i << ", " << j << "), value " << c;
+      }
+  }
+  fs::remove(path);
+}
 #endif
 
 // A case whose speeds make the time step absurdly small stops at once, naming the particle that
