@@ -372,6 +372,7 @@ struct StepRowExtras {
 void count_launches(benchmark::State& state, const Run& run, Solver& solver, long steps, bool by_label) {
   const LaunchCensus census(by_label);
   const long long allocations_before = allocations().allocation_count();
+  const std::map<std::string, long long> allocations_by_label_before = allocations().allocation_count_by_label();
   const long fences_before = solver.timers().fences();
   for (long k = 0; k < steps; ++k) solver.advance(solver.stable_time_step());
   const double allocations_per_step = double(allocations().allocation_count() - allocations_before) / steps;
@@ -391,6 +392,12 @@ void count_launches(benchmark::State& state, const Run& run, Solver& solver, lon
                double(census.fenced_fills()) / steps);
   for (const auto& [label, count] : census.by_label())
     std::fprintf(stderr, "  %8.2f  %s\n", double(count) / steps, label.c_str());
+  std::fprintf(stderr, "allocations of BM_Step/%s a step, by label:\n", run.spec.key().c_str());
+  for (const auto& [label, count] : allocations().allocation_count_by_label()) {
+    const auto before = allocations_by_label_before.find(label);
+    const long long made = count - (before == allocations_by_label_before.end() ? 0 : before->second);
+    if (made > 0) std::fprintf(stderr, "  %8.2f  %s\n", double(made) / steps, label.c_str());
+  }
 }
 
 // The whole step (time step, all phases, reordering when due).

@@ -36,6 +36,8 @@ class AllocationTracker {
   // Allocations counted since the start (on a GPU each costs more than a small kernel, and its
   // free may wait for the device: a step that allocates pays it every step).
   long long allocation_count() const { return allocation_count_; }
+  // The same by label: where they come from.
+  const std::map<std::string, long long>& allocation_count_by_label() const { return allocation_count_by_label_; }
   void reset_peak() {
     peak_ = current_;
     record_peak();
@@ -63,6 +65,7 @@ class AllocationTracker {
     }
     t.live_[ptr] = {size, label};
     ++t.allocation_count_;
+    ++t.allocation_count_by_label_[label];
     t.current_ += static_cast<long long>(size);
     if (t.current_ > t.peak_) {
       t.peak_ = t.current_;
@@ -98,7 +101,7 @@ class AllocationTracker {
   };
   std::map<const void*, Allocation> live_;
   std::map<const void*, std::uint64_t> uncounted_;
-  std::map<std::string, long long> peak_by_label_;
+  std::map<std::string, long long> peak_by_label_, allocation_count_by_label_;
   long long current_ = 0, peak_ = 0, freed_from_before_ = 0, allocation_count_ = 0;
   // The callbacks come from whichever thread allocates: Kokkos' OpenMP back-end has its threads
   // allocate their own scratch ("[unlabeled]"), two at once was seen, and two insertions into
