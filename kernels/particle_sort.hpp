@@ -3,9 +3,7 @@
 // (Algorithm 1, step xii), so that particles close in space are close in memory and the transfer
 // kernels touch the grid in order.
 #include <Kokkos_ScatterView.hpp>
-#include <Kokkos_Sort.hpp>
 
-#include <cstdint>
 #include <string>
 #include <type_traits>
 
@@ -48,15 +46,16 @@ struct GroupOfCellBin {
 //    Each chunk counts its particles per bin; a bin's particles from chunk t go after those of
 //    the chunks before it; each chunk then places its particles in index order. Three passes over
 //    the cell map, and a counter per bin and chunk (at most 32 chunks).
-//  - Elsewhere: Kokkos' BinSort places particles in their bins with atomic counters, in an order
-//    that depends on thread timing; sorting within bins by the unique key (bin, particle index)
-//    makes the result unique. The particles per bin are counted with a ScatterView (integer sums:
-//    exact in any order).
+//  - Elsewhere: a bin sort. The particles per bin are counted (an atomic ScatterView: integer sums,
+//    exact in any order), each bin's first slot comes from a scan of the counts, and each particle
+//    takes the next slot of its bin (an atomic counter a bin: an order that depends on thread
+//    timing); each bin's particles are then sorted by index, which makes the result unique. (Kokkos'
+//    BinSort, which did the same from keys (bin, particle index), made three Views, one of them the
+//    particles' length, at each build: on a GPU an allocation and a free each, every step.)
 // Either method runs on any back-end (the tests build both on CPUs and compare them); the default
 // is the one for the back-end's memory.
 class CellOrder {
  public:
-  using KeyView = Kokkos::View<std::int64_t*, DeviceType>;
   enum class Method { counting_sort, bin_sort };
   static constexpr Method default_method =
       cpu_code_paths ? Method::counting_sort : Method::bin_sort;
@@ -82,8 +81,7 @@ class CellOrder {
   const IndexView& bin_offset() const { return bin_offset_; }
   const IndexView& particle() const { return particle_; }
   size_t bytes() const {
-    return keys_.span() * sizeof(std::int64_t) +
-           (particle_.span() + bin_offset_.span() + bin_count_.span() + chunk_start_.span()) * sizeof(index_t);
+    return (particle_.span() + bin_offset_.span() + bin_count_.span() + chunk_start_.span()) * sizeof(index_t);
   }
 
   // (Public for nvcc, which allows device lambdas only in public member functions.)
@@ -95,8 +93,6 @@ class CellOrder {
     if (static_cast<index_t>(particle_.extent(0)) < num_particles) {
       const index_t capacity = num_particles + num_particles / 8;
       particle_ = IndexView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_particle"), capacity);
-      if (method_ == Method::bin_sort)
-        keys_ = KeyView(Kokkos::view_alloc(Kokkos::WithoutInitializing, "cell_order_keys"), capacity);
     }
     if (static_cast<index_t>(bin_offset_.extent(0)) != num_bins + 1) {
       bin_offset_ = IndexView("cell_order_offset", num_bins + 1);
@@ -180,45 +176,50 @@ class CellOrder {
 
   template <class BinOf>
   void build_by_bin_sort(const BinOf& bin_of, index_t num_particles, index_t num_bins) {
-    const KeyView keys = keys_;
-    const IndexView particle = particle_, offset = bin_offset_, count = bin_count_;
-    const std::int64_t n = num_particles > 0 ? num_particles : 1;
-    fill_in_order(count, 0);
+    const IndexView particle = particle_, offset = bin_offset_, next = bin_count_;
+    fill_in_order(next, 0);
     {
-      Kokkos::Experimental::ScatterView<index_t*, Kokkos::LayoutLeft, DeviceType> scatter(count);
+      // Atomic: no copy of the counters made (and freed) at each build where ScatterView would
+      // otherwise duplicate them (on CPUs).
+      Kokkos::Experimental::ScatterView<index_t*, Kokkos::LayoutLeft, DeviceType, Kokkos::Experimental::ScatterSum,
+                                        Kokkos::Experimental::ScatterNonDuplicated, Kokkos::Experimental::ScatterAtomic>
+          counts(next);
       Kokkos::parallel_for(
-          "cell_order_keys", Kokkos::RangePolicy<ExecutionSpace>(0, num_particles), KOKKOS_LAMBDA(const index_t p) {
-            const index_t bin = bin_of(p);
-            keys(p) = static_cast<std::int64_t>(bin) * n + p;
-            auto access = scatter.access();
-            access(bin) += 1;
+          "cell_order_count", Kokkos::RangePolicy<ExecutionSpace>(0, num_particles), KOKKOS_LAMBDA(const index_t p) {
+            auto access = counts.access();
+            access(bin_of(p)) += 1;
           });
-      scatter.contribute_into(count);
     }
-    if (num_particles > 0) {
-      // Keys below num_bins * n < 2^53 (checked by the caller's sizes), so the bin arithmetic,
-      // done in double, is monotone in the key: bins in key order, sorted within.
-      using BinOp = Kokkos::BinOp1D<KeyView>;
-      Kokkos::BinSort<KeyView, BinOp> sorter(keys, 0, num_particles, BinOp(num_bins, 0, std::int64_t(num_bins) * n),
-                                             /*sort_within_bins=*/true);
-      sorter.create_permute_vector();
-      const auto permutation = sorter.get_permute_vector();
-      Kokkos::parallel_for(
-          "cell_order_particles", Kokkos::RangePolicy<ExecutionSpace>(0, num_particles),
-          KOKKOS_LAMBDA(const index_t k) { particle(k) = static_cast<index_t>(permutation(k)); });
-    }
+    // Each bin's first slot (offset), which is also the next slot its particles take (next).
     Kokkos::parallel_scan(
         "cell_order_offsets", Kokkos::RangePolicy<ExecutionSpace>(0, num_bins + 1),
         KOKKOS_LAMBDA(const index_t c, index_t& running, const bool final) {
           if (final) offset(c) = running;
-          if (c < num_bins) running += count(c);
+          if (c == num_bins) return;
+          const index_t count = next(c);
+          if (final) next(c) = running;
+          running += count;
+        });
+    Kokkos::parallel_for(
+        "cell_order_place", Kokkos::RangePolicy<ExecutionSpace>(0, num_particles),
+        KOKKOS_LAMBDA(const index_t p) { particle(Kokkos::atomic_fetch_add(&next(bin_of(p)), index_t(1))) = p; });
+    // Each bin's particles in index order (an insertion sort: a cell's few particles, placed by
+    // threads that took them mostly in order).
+    Kokkos::parallel_for(
+        "cell_order_sort_bins", Kokkos::RangePolicy<ExecutionSpace>(0, num_bins), KOKKOS_LAMBDA(const index_t b) {
+          const index_t begin = offset(b), end = offset(b + 1);
+          for (index_t s = begin + 1; s < end; ++s) {
+            const index_t p = particle(s);
+            index_t t = s;
+            for (; t > begin && particle(t - 1) > p; --t) particle(t) = particle(t - 1);
+            particle(t) = p;
+          }
         });
   }
 
  private:
   Method method_;
-  KeyView keys_;  // (BinSort)
-  IndexView particle_, bin_offset_, bin_count_;
+  IndexView particle_, bin_offset_, bin_count_;  // (bin_count_: the bin sort's next slots)
   // (Counting sort) per bin and chunk: its particles of the bin, then the next slot they take.
   Kokkos::View<index_t**, Kokkos::LayoutRight, DeviceType> chunk_start_;
   index_t num_particles_ = 0;
