@@ -6,6 +6,7 @@
 
 #include <string>
 #include <type_traits>
+#include <utility>
 
 #include "kernels/types.hpp"
 
@@ -22,6 +23,25 @@ ViewType permuted_particle_field(const ViewType& view, const IndexView& permutat
       "permute", Kokkos::RangePolicy<ExecutionSpace>(0, n),
       KOKKOS_LAMBDA(const index_t k) { permuted(k) = view(permutation(k)); });
   return permuted;
+}
+
+// The same in place: view's first n entries gathered into `scratch` (as many bytes as view's
+// entries take, at least) and copied back, the View kept. Twice the bytes moved, but one scratch
+// serves every field of a reorder, where new storage was an allocation and a free a field: on a
+// GPU each costs more than a copy, and a free waits for the device.
+using PermutationScratch = Kokkos::View<double*, DeviceType>;
+template <class ViewType>
+void permute_particle_field_in_place(const ViewType& view, const IndexView& permutation, index_t n,
+                                     const PermutationScratch& scratch) {
+  using Value = typename ViewType::non_const_value_type;
+  static_assert(sizeof(Value) <= sizeof(double) && alignof(Value) <= alignof(double),
+                "a particle field's entries fit the scratch's");
+  const Kokkos::View<Value*, DeviceType, Kokkos::MemoryTraits<Kokkos::Unmanaged>> gathered(
+      reinterpret_cast<Value*>(scratch.data()), static_cast<size_t>(n));
+  Kokkos::parallel_for(
+      "permute", Kokkos::RangePolicy<ExecutionSpace>(0, n),
+      KOKKOS_LAMBDA(const index_t k) { gathered(k) = view(permutation(k)); });
+  Kokkos::deep_copy(ExecutionSpace(), Kokkos::subview(view, std::make_pair(index_t(0), n)), gathered);
 }
 
 // A particle's bin for CellOrder: its cell, or the group of cells its cell belongs to (a map from
@@ -75,6 +95,11 @@ class CellOrder {
   template <class ViewType>
   ViewType apply(const ViewType& view) const {
     return permuted_particle_field(view, particle_, num_particles_);
+  }
+  // The same in place, through `scratch`: permute_particle_field_in_place.
+  template <class ViewType>
+  void apply_in_place(const ViewType& view, const PermutationScratch& scratch) const {
+    permute_particle_field_in_place(view, particle_, num_particles_, scratch);
   }
 
   // The particles of bin b are particle(bin_offset(b)) .. particle(bin_offset(b + 1) - 1).

@@ -192,7 +192,16 @@ void update_cell_map(const GridGeometry& geometry, const ParticleState& particle
 void reorder_particles_by_cell(ParticleState& particles, index_t num_cells) {
   CellOrder order;
   order.build(particles.cell, particles.count, num_cells);
-  particles.for_each_field_mutable([&](auto& field) { field = order.apply(field); });
+  if constexpr (cpu_code_paths) {
+    // Each field gathered into new storage, the old freed: the bytes moved once (the freed blocks
+    // are reused at once on the host: reuse_freed_host_memory).
+    particles.for_each_field_mutable([&](auto& field) { field = order.apply(field); });
+  } else {
+    // In place through one scratch: one allocation a reorder, not one a field.
+    const PermutationScratch scratch(Kokkos::view_alloc(Kokkos::WithoutInitializing, std::string("reorder_scratch")),
+                                     static_cast<size_t>(particles.count));
+    particles.for_each_field_mutable([&](const auto& field) { order.apply_in_place(field, scratch); });
+  }
 }
 
 index_t count_invalid_gas_states(const ParticleState& particles, real_t gamma) {

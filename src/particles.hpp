@@ -132,7 +132,8 @@ void update_cell_map(const GridGeometry& geometry, const ParticleState& particle
 
 // Algorithm 1, step 12: the particle arrays grouped by cell, in index order within a cell (the
 // same order on any thread count), so that particles close in space are close in memory. The
-// fields' Views are replaced (as capacity growth replaces them): hold none across it.
+// fields' Views may be replaced (on CPUs they are, as capacity growth replaces them): hold none
+// across it.
 void reorder_particles_by_cell(ParticleState& particles, index_t num_cells);
 
 // The number of particles with an invalid gas state (is_valid_gas_state: a NaN or non-positive
