@@ -304,7 +304,8 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
       const real_t threshold = solver.node_mass_threshold(), gamma = solver.config().physics.gamma;
       // The k-th node the slab owns (x fastest) as the datasets read it.
       const auto sample = [&](hsize_t k) {
-        const index_t i = static_cast<index_t>(k % static_cast<hsize_t>(nx)), j = static_cast<index_t>(k / static_cast<hsize_t>(nx));
+        const index_t i = static_cast<index_t>(k % static_cast<hsize_t>(nx));
+        const index_t j = static_cast<index_t>(k / static_cast<hsize_t>(nx));
         const index_t node = geo.node_index(slab.local_node_x(owned.begin_x + i), slab.local_node_y(owned.begin_y + j));
         return NodeSample{state(node, GridFields::projected_mass),
                           state(node, GridFields::projected_momentum_x),
