@@ -171,15 +171,6 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
   return particles;
 }
 
-RealView particle_pressure(const ParticleState& particles, real_t gamma) {
-  RealView pressure("particle_pressure", particles.count);
-  const auto rho = particles.density, e = particles.specific_energy;
-  Kokkos::parallel_for(
-      "particle_pressure", Kokkos::RangePolicy<ExecutionSpace>(0, particles.count),
-      KOKKOS_LAMBDA(const index_t p) { pressure(p) = perfect_gas_pressure(gamma, rho(p), e(p)); });
-  return pressure;
-}
-
 void update_cell_map(const GridGeometry& geometry, const ParticleState& particles, index_t first) {
   const auto x = particles.position_x;
   const auto y = particles.position_y;

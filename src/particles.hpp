@@ -122,10 +122,6 @@ ParticleState create_initial_particles(const CaseConfig& config, const GridSlab&
 // The initial gas state at (x, y): the background, overridden by the last region containing it.
 GasState initial_state_at(const InitialStateConfig& initial, real_t x, real_t y);
 
-// Every particle's pressure, (gamma - 1) rho e, in a View of its own (for output: the particles do
-// not store it).
-RealView particle_pressure(const ParticleState& particles, real_t gamma);
-
 // Recomputes the cell of every particle from index `first` on from its position. (In a step the
 // particle boundaries set the cells, and what adds particles sets theirs.)
 void update_cell_map(const GridGeometry& geometry, const ParticleState& particles, index_t first = 0);

@@ -23,6 +23,7 @@
 #include "boundary_conditions.hpp"
 #include "case_config.hpp"
 #include "counter_random.hpp"
+#include "gas_physics.hpp"
 #include "geometry.hpp"
 #include "host_memory.hpp"
 #include "launch_census.hpp"
@@ -1063,7 +1064,9 @@ HostParticles to_host(const Solver& solver) {
   copy(pt.position_x, h.x);
   copy(pt.position_y, h.y);
   copy(pt.density, h.rho);
-  copy(particle_pressure(pt, solver.config().physics.gamma), h.p);
+  std::vector<real_t> e;
+  copy(pt.specific_energy, e);
+  for (size_t k = 0; k < e.size(); ++k) h.p.push_back(perfect_gas_pressure(solver.config().physics.gamma, h.rho[k], e[k]));
   copy(pt.velocity_x, h.vx);
   return h;
 }
