@@ -16,12 +16,19 @@ namespace mpmflow {
 // place of `view`: the entries gathered straight into their new storage (then `view`'s is freed),
 // not into a temporary copied back, which moved the fields' bytes twice as often. Past n the
 // entries are unset (beyond the particle count, as the growth of the Views leaves them).
+// target(k) = source(permutation(k)) for k in [0, n).
+template <class TargetView, class SourceView>
+void gather_by_permutation(const TargetView& target, const SourceView& source, const IndexView& permutation,
+                           index_t n) {
+  Kokkos::parallel_for(
+      "permute", Kokkos::RangePolicy<ExecutionSpace>(0, n),
+      KOKKOS_LAMBDA(const index_t k) { target(k) = source(permutation(k)); });
+}
+
 template <class ViewType>
 ViewType permuted_particle_field(const ViewType& view, const IndexView& permutation, index_t n) {
   const ViewType permuted(Kokkos::view_alloc(Kokkos::WithoutInitializing, view.label()), view.extent(0));
-  Kokkos::parallel_for(
-      "permute", Kokkos::RangePolicy<ExecutionSpace>(0, n),
-      KOKKOS_LAMBDA(const index_t k) { permuted(k) = view(permutation(k)); });
+  gather_by_permutation(permuted, view, permutation, n);
   return permuted;
 }
 
@@ -38,9 +45,7 @@ void permute_particle_field_in_place(const ViewType& view, const IndexView& perm
                 "a particle field's entries fit the scratch's");
   const Kokkos::View<Value*, DeviceType, Kokkos::MemoryTraits<Kokkos::Unmanaged>> gathered(
       reinterpret_cast<Value*>(scratch.data()), static_cast<size_t>(n));
-  Kokkos::parallel_for(
-      "permute", Kokkos::RangePolicy<ExecutionSpace>(0, n),
-      KOKKOS_LAMBDA(const index_t k) { gathered(k) = view(permutation(k)); });
+  gather_by_permutation(gathered, view, permutation, n);
   Kokkos::deep_copy(ExecutionSpace(), Kokkos::subview(view, std::make_pair(index_t(0), n)), gathered);
 }
 
