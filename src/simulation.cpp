@@ -118,7 +118,7 @@ void check_memory(const CaseConfig& config, int num_ranks, double max_bytes) {
   const double nodes = double(config.domain.cells_x + 5) * (config.domain.cells_y + 5);
   // One rank builds each snapshot and checkpoint in memory before writing it (h5::write_file_safely):
   // about 90 B a particle more while it does (the cylinder at 448 x 224 cells, 881,013 particles:
-  // heap peaks of 239 B a particle with snapshots, 144 without).
+  // heap peaks of 233 B a particle with snapshots, 144 without).
   const bool files_in_memory = num_ranks <= 1 && (config.output.snapshots > 0 || config.output.checkpoint_interval > 0);
   const double per_particle = files_in_memory ? 300 : 200;
   const double needed = (per_particle * particles + 200 * nodes) / std::max(num_ranks, 1);
