@@ -111,7 +111,7 @@ class CellOrder {
   const IndexView& bin_offset() const { return bin_offset_; }
   const IndexView& particle() const { return particle_; }
   size_t bytes() const {
-    return (particle_.span() + bin_offset_.span() + bin_count_.span() + chunk_start_.span()) * sizeof(index_t);
+    return (particle_.span() + bin_offset_.span() + bin_next_slot_.span() + chunk_start_.span()) * sizeof(index_t);
   }
 
   // (Public for nvcc, which allows device lambdas only in public member functions.)
@@ -126,7 +126,7 @@ class CellOrder {
     }
     if (static_cast<index_t>(bin_offset_.extent(0)) != num_bins + 1) {
       bin_offset_ = IndexView("cell_order_offset", num_bins + 1);
-      bin_count_ = IndexView("cell_order_count", method_ == Method::bin_sort ? num_bins : 0);
+      bin_next_slot_ = IndexView("cell_order_next_slot", method_ == Method::bin_sort ? num_bins : 0);
     }
     if (method_ == Method::counting_sort) build_by_counting(bin_of, num_particles, num_bins);
     else build_by_bin_sort(bin_of, num_particles, num_bins);
@@ -206,7 +206,7 @@ class CellOrder {
 
   template <class BinOf>
   void build_by_bin_sort(const BinOf& bin_of, index_t num_particles, index_t num_bins) {
-    const IndexView particle = particle_, offset = bin_offset_, next = bin_count_;
+    const IndexView particle = particle_, offset = bin_offset_, next = bin_next_slot_;
     fill_in_order(next, 0);
     {
       // Atomic: no copy of the counters made (and freed) at each build where ScatterView would
@@ -249,7 +249,8 @@ class CellOrder {
 
  private:
   Method method_;
-  IndexView particle_, bin_offset_, bin_count_;  // (bin_count_: the bin sort's next slots)
+  // bin_next_slot_ (the bin sort's): each bin's particle count, then the next slot its particles take.
+  IndexView particle_, bin_offset_, bin_next_slot_;
   // (Counting sort) per bin and chunk: its particles of the bin, then the next slot they take.
   Kokkos::View<index_t**, Kokkos::LayoutRight, DeviceType> chunk_start_;
   index_t num_particles_ = 0;
