@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <sstream>
 #include <string>
 #include <type_traits>
@@ -224,6 +226,30 @@ TEST_F(CommandLine, FilesNameTheBuildThatWroteThem) {
   }
 }
 
+// The datasets `names` of a file that `write` wrote (h5::write_file_safely, in the temporary
+// folder, removed after), each read whole as doubles, row after row.
+std::map<std::string, std::vector<double>> written_and_read_back(const std::string& stem,
+                                                                 const std::vector<std::string>& names,
+                                                                 const std::function<void(hid_t)>& write) {
+  namespace h5 = mpmflow::h5;
+  const fs::path path = fs::temp_directory_path() / ("mpmflow_" + stem + "_" + std::to_string(getpid()) + ".h5");
+  h5::write_file_safely(path.string(), mpmflow::ParallelContext::self(), write);
+  std::map<std::string, std::vector<double>> read;
+  {
+    h5::Handle file(h5::open_file_here(path.string()), H5Fclose, "open " + path.string());
+    for (const std::string& name : names) {
+      h5::Handle set(H5Dopen2(file, name.c_str(), H5P_DEFAULT), H5Dclose, "open " + name);
+      h5::Handle space(H5Dget_space(set), H5Sclose, "dataspace of " + name);
+      std::vector<double> values(static_cast<size_t>(H5Sget_simple_extent_npoints(space)));
+      if (H5Dread(set, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()) < 0)
+        throw std::runtime_error("read " + name + " of " + path.string());
+      read[name] = std::move(values);
+    }
+  }
+  fs::remove(path);
+  return read;
+}
+
 // A table written piece by piece (the snapshots' positions, velocities and vertices) holds each of
 // this rank's rows in order at its place: pieces of 4 rows here, a last one of 2; and a table of no
 // rows is written empty. (Two ranks of unequal rows write them in Output.XdmfInParaViewAndMeshio and
@@ -231,28 +257,24 @@ TEST_F(CommandLine, FilesNameTheBuildThatWroteThem) {
 TEST(Hdf5Files, RowsWrittenInPiecesAreTheRowsInOrder) {
   namespace h5 = mpmflow::h5;
   const mpmflow::ParallelContext context = mpmflow::ParallelContext::self();
-  const fs::path path = fs::temp_directory_path() / ("mpmflow_rows_" + std::to_string(getpid()) + ".h5");
   const auto row_values = [](hsize_t k, double* row) {
     row[0] = double(k);
     row[1] = 10.0 * k;
     row[2] = 100.0 * k;
   };
-  h5::write_file_safely(path.string(), context, [&](hid_t file) {
+  const auto read = written_and_read_back("rows", {"table", "empty"}, [&](hid_t file) {
     h5::write_rows_in_pieces<double>(file, "table", 17, 3, 5, 10, row_values, context, 4);
     h5::write_rows_in_pieces<long long>(file, "empty", 0, 1, 0, 0, [](hsize_t, long long*) {}, context, 4);
   });
-  h5::Handle file(h5::open_file_here(path.string()), H5Fclose, "open " + path.string());
-  h5::Handle table(H5Dopen2(file, "table", H5P_DEFAULT), H5Dclose, "open table");
-  std::vector<double> values(17 * 3, -1.0);
-  ASSERT_GE(H5Dread(table, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), 0);
+  const std::vector<double>& values = read.at("table");
+  ASSERT_EQ(values.size(), 17u * 3);
   for (int k = 0; k < 10; ++k)
     for (int c = 0; c < 3; ++c) {
       double expected[3];
       row_values(hsize_t(k), expected);
       EXPECT_EQ(values[size_t((5 + k) * 3 + c)], expected[c]) << "row " << 5 + k << ", column " << c;
     }
-  EXPECT_EQ(h5::dataset_length(file, "empty"), 0u);
-  fs::remove(path);
+  EXPECT_TRUE(read.at("empty").empty());
 }
 
 // A rectangle of a 2D array of rows (the grid's nodes a slab owns, x fastest) written in pieces of
@@ -261,7 +283,6 @@ TEST(Hdf5Files, RowsWrittenInPiecesAreTheRowsInOrder) {
 TEST(Hdf5Files, ARectangleWrittenInPiecesLandsInItsRows) {
   namespace h5 = mpmflow::h5;
   const mpmflow::ParallelContext context = mpmflow::ParallelContext::self();
-  const fs::path path = fs::temp_directory_path() / ("mpmflow_rectangle_" + std::to_string(getpid()) + ".h5");
   // A 6 x 5 array of rows of two values; the rectangle of 4 x 3 from (1, 1): row k of it is
   // (1 + k % 4, 1 + k / 4) of the array.
   const hsize_t width = 6, height = 5, run_length = 4, num_runs = 3, first = 1 + width * 1;
@@ -270,16 +291,14 @@ TEST(Hdf5Files, ARectangleWrittenInPiecesLandsInItsRows) {
     row[1] = -1.0 - double(k);
   };
   const hsize_t piece_rows[] = {9, 2};  // two runs a piece, then one (fewer rows than a run)
-  h5::write_file_safely(path.string(), context, [&](hid_t file) {
+  const auto read = written_and_read_back("rectangle", {"array0", "array1"}, [&](hid_t file) {
     for (int t = 0; t < 2; ++t)
       h5::write_rectangle_in_pieces<double>(file, ("array" + std::to_string(t)).c_str(), width * height, 2, first,
                                             run_length, num_runs, width, row_values, context, piece_rows[t]);
   });
-  h5::Handle file(h5::open_file_here(path.string()), H5Fclose, "open " + path.string());
   for (int t = 0; t < 2; ++t) {
-    h5::Handle array(H5Dopen2(file, ("array" + std::to_string(t)).c_str(), H5P_DEFAULT), H5Dclose, "open array");
-    std::vector<double> values(width * height * 2, -99.0);
-    ASSERT_GE(H5Dread(array, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, values.data()), 0);
+    const std::vector<double>& values = read.at("array" + std::to_string(t));
+    ASSERT_EQ(values.size(), width * height * 2);
     for (hsize_t j = 0; j < height; ++j)
       for (hsize_t i = 0; i < width; ++i) {
         const bool inside = i >= 1 && i < 1 + run_length && j >= 1 && j < 1 + num_runs;
@@ -290,7 +309,6 @@ TEST(Hdf5Files, ARectangleWrittenInPiecesLandsInItsRows) {
               << "pieces of " << piece_rows[t] << " rows: node (" << i << ", " << j << "), value " << c;
       }
   }
-  fs::remove(path);
 }
 #endif
 
