@@ -12,10 +12,6 @@
 
 namespace mpmflow {
 
-// A View like `view` (its label and length) whose first n entries are view(permutation(k)), in
-// place of `view`: the entries gathered straight into their new storage (then `view`'s is freed),
-// not into a temporary copied back, which moved the fields' bytes twice as often. Past n the
-// entries are unset (beyond the particle count, as the growth of the Views leaves them).
 // target(k) = source(permutation(k)) for k in [0, n).
 template <class TargetView, class SourceView>
 void gather_by_permutation(const TargetView& target, const SourceView& source, const IndexView& permutation,
@@ -25,6 +21,10 @@ void gather_by_permutation(const TargetView& target, const SourceView& source, c
       KOKKOS_LAMBDA(const index_t k) { target(k) = source(permutation(k)); });
 }
 
+// A View like `view` (its label and length) whose first n entries are view(permutation(k)), in
+// place of `view`: the entries gathered straight into their new storage (then `view`'s is freed),
+// not into a temporary copied back, which moved the fields' bytes twice as often. Past n the
+// entries are unset (beyond the particle count, as the growth of the Views leaves them).
 template <class ViewType>
 ViewType permuted_particle_field(const ViewType& view, const IndexView& permutation, index_t n) {
   const ViewType permuted(Kokkos::view_alloc(Kokkos::WithoutInitializing, view.label()), view.extent(0));

@@ -1066,7 +1066,8 @@ HostParticles to_host(const Solver& solver) {
   copy(pt.density, h.rho);
   std::vector<real_t> e;
   copy(pt.specific_energy, e);
-  for (size_t k = 0; k < e.size(); ++k) h.p.push_back(perfect_gas_pressure(solver.config().physics.gamma, h.rho[k], e[k]));
+  for (size_t k = 0; k < e.size(); ++k)
+    h.p.push_back(perfect_gas_pressure(solver.config().physics.gamma, h.rho[k], e[k]));
   copy(pt.velocity_x, h.vx);
   return h;
 }
