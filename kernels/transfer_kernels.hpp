@@ -1030,9 +1030,9 @@ void for_each_particle_stencil(const char* label, const Shape& shape, const Part
 }
 
 // Runs body(p) for every particle p, without a stencil: all particles at once, or one thread per
-// cell (ColouredCells) or per tile (ColouredTiles) walking its particles in order, so that a body
-// writing to its particle's cell writes exclusively and in a fixed order (no colours needed: a
-// particle touches one cell).
+// tile (ColouredTiles) walking its particles in order, so that a body writing to its particle's
+// cell (P2C) writes exclusively and in a fixed order (no colours needed: a particle touches one
+// cell). (Grouped by cell, ColouredCells, P2C walks each cell's particles itself: p2c below.)
 template <class Body>
 void for_each_particle(const char* label, index_t num_particles, const Body& body) {
   Kokkos::parallel_for(label, Kokkos::RangePolicy<ExecutionSpace>(0, num_particles), body);
@@ -1040,14 +1040,6 @@ void for_each_particle(const char* label, index_t num_particles, const Body& bod
 template <class Body>
 void for_each_particle(const char* label, const ParticleBatches& batches, const Body& body) {
   for_each_particle(label, batches.count, body);
-}
-template <class Body>
-void for_each_particle(const char* label, const ColouredCells& cells, const Body& body) {
-  const IndexView offset = cells.cell_offset, order = cells.particle;
-  Kokkos::parallel_for(
-      label, Kokkos::RangePolicy<ExecutionSpace>(0, cells.cells_x * cells.cells_y), KOKKOS_LAMBDA(const index_t c) {
-        for (index_t s = offset(c); s < offset(c + 1); ++s) body(order(s));
-      });
 }
 template <class Body>
 void for_each_particle(const char* label, const ColouredTiles& tiles, const Body& body) {
@@ -1078,8 +1070,8 @@ struct P2CBody {
 
 // P2C: per-cell sums over the particles of each cell, cell(c, first + k) += sum_{p in c} F_k(p),
 // into a (cell, component) View through the same accumulators as P2G (a ScatterView over the
-// cells, or DirectNodeAccess with the cell-grouped traversal). The particle functor follows the
-// P2G contract.
+// cells, or DirectNodeAccess with the particles grouped by tile; by cell, the overload below). The
+// particle functor follows the P2G contract.
 template <class ScatterViewType, class ParticleFunctor, class Traversal>
 void p2c(const char* label, const IndexView& particle_cell, const Traversal& traversal, ScatterViewType& scatter,
          int first_component, const ParticleFunctor& functor) {
