@@ -31,7 +31,7 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
   std::ostringstream name;
   name << checkpoint_prefix(case_name) << std::setw(9) << std::setfill('0') << clock.step << ".h5";
   const std::string path = directory + "/" + name.str();
-  if (context.is_root()) std::filesystem::create_directories(directory);
+  if (context.is_root()) create_output_directory(directory);
   context.barrier();
 
   const ParticleState& pt = solver.particles();

@@ -17,6 +17,7 @@
 #include "build_commit.hpp"
 #include "gas_physics.hpp"
 #include "hdf5_io.hpp"
+#include "run_files.hpp"
 
 namespace mpmflow {
 
@@ -198,7 +199,7 @@ SnapshotWriter::SnapshotWriter(std::string directory, std::string case_name, con
                                std::string run_id)
     : directory_(std::move(directory)), case_name_(std::move(case_name)), run_id_(std::move(run_id)), context_(context) {
   h5::require_parallel_if_distributed(context_);
-  if (context_.is_root()) std::filesystem::create_directories(directory_);
+  if (context_.is_root()) create_output_directory(directory_);
   context_.barrier();
 }
 

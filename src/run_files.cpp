@@ -10,6 +10,7 @@
 #include <regex>
 #include <sstream>
 #include <stdexcept>
+#include <system_error>
 
 #include <nlohmann/json.hpp>
 
@@ -30,6 +31,17 @@ std::string new_run_id(const std::string& case_name) {
   id << case_name << '-' << std::put_time(&utc, "%Y%m%dT%H%M%SZ") << '-' << std::hex << std::setw(8)
      << std::setfill('0') << (entropy() & 0xffffffffu);
   return id.str();
+}
+
+void create_output_directory(const std::string& directory) {
+  std::error_code error;
+  fs::create_directories(directory, error);
+  // create_directories reports no error when the path is already there as something other than a
+  // folder in some library versions: ask.
+  if (!error && !fs::is_directory(directory, error) && !error) error = std::make_error_code(std::errc::not_a_directory);
+  if (error)
+    throw std::runtime_error("cannot create the output folder " + directory +
+                             " (output/directory, or --output): " + error.message());
 }
 
 std::string run_id_of_file(const std::string& path) {

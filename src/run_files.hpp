@@ -14,6 +14,11 @@ namespace mpmflow {
 // "<case>-<UTC yyyymmddThhmmssZ>-<8 hex digits>": unique for practical purposes.
 std::string new_run_id(const std::string& case_name);
 
+// Creates the run's output folder and its parents (rank 0 alone, before its files). Throws
+// std::runtime_error naming the folder, the setting it comes from and why it cannot be made (a
+// file in the way, a parent that is not a folder or cannot be written).
+void create_output_directory(const std::string& directory);
+
 // The run id an HDF5 file of mpmflow carries ("" when it has none or cannot be read).
 std::string run_id_of_file(const std::string& path);
 

@@ -321,7 +321,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   // The run's files, listed as they are written (rank 0).
   std::unique_ptr<RunManifest> manifest;
   if (context.is_root() && (config.output.snapshots > 0 || config.output.checkpoint_interval > 0)) {
-    std::filesystem::create_directories(config.output.directory);
+    create_output_directory(config.output.directory);
     manifest = std::make_unique<RunManifest>(config.output.directory, config.name, run_id);
   }
   std::unique_ptr<SnapshotWriter> writer;

@@ -424,6 +424,24 @@ TEST_F(CommandLine, InvalidStateStopsTheRunNamingTheParticle) {
   EXPECT_NE(read_text(dir_ / "out" / "sod_particles.xmf").find("sod_000001.h5"), std::string::npos);
 }
 
+// An output folder that cannot be made (here a file stands where it or its parent would go) stops
+// the run before any step with an error naming the folder, the setting and the reason; the file in
+// the way is left as it was.
+TEST_F(CommandLine, AnOutputFolderThatCannotBeMadeIsNamed) {
+  write_case("case.json", sod_text_);
+  write_case("in_the_way", "not a folder\n");
+  for (const std::string folder : {"in_the_way", "in_the_way/out"}) {
+    const CommandResult r = run_mpmflow("run case.json --output " + folder, dir_);
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_NE(r.output.find("mpmflow: error: cannot create the output folder " + folder +
+                            " (output/directory, or --output): Not a directory"),
+              std::string::npos)
+        << r.output;
+    EXPECT_EQ(r.output.find("step 1"), std::string::npos) << r.output;
+    EXPECT_EQ(read_text(dir_ / "in_the_way"), "not a folder\n");
+  }
+}
+
 #else
 TEST_F(CommandLine, OutputRequestWithoutHdf5IsRefused) {
   write_case("case.json", sod_text_);
