@@ -5,6 +5,8 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <map>
+#include <regex>
 #include <sstream>
 #include <type_traits>
 #include <vector>
@@ -116,6 +118,39 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
   }
   context.barrier();
   return path;
+}
+
+std::string newest_checkpoint_in(const std::string& folder) {
+  // The names write_checkpoint gives: the case's name, then the step (zero-padded to 9 digits, more
+  // beyond); at most 18 digits, which a long holds.
+  static const std::regex checkpoint_name(R"(^(.+)_checkpoint_(\d{1,18})\.h5$)");
+  struct Newest {
+    long step = -1;
+    std::string file;
+  };
+  std::map<std::string, Newest> newest_of_case;
+  std::error_code error;
+  for (std::filesystem::directory_iterator entry(folder, error), end; !error && entry != end; entry.increment(error)) {
+    const std::string file = entry->path().filename().string();
+    std::smatch match;
+    std::error_code not_a_file;
+    if (!std::regex_match(file, match, checkpoint_name) || !entry->is_regular_file(not_a_file)) continue;
+    Newest& newest = newest_of_case[match[1].str()];
+    const long step = std::stol(match[2].str());
+    if (step > newest.step) newest = {step, file};
+  }
+  if (error) throw ConfigError("--restart " + folder + ": cannot read the folder: " + error.message());
+  if (newest_of_case.empty())
+    throw ConfigError("--restart " + folder + ": expected a checkpoint file, or a folder holding one "
+                      "(<case>_checkpoint_<step>.h5, which output/checkpoint_interval writes); the folder holds none");
+  if (newest_of_case.size() > 1) {
+    std::string newest_files;
+    for (const auto& [name, newest] : newest_of_case) newest_files += (newest_files.empty() ? "" : ", ") + newest.file;
+    throw ConfigError("--restart " + folder + ": the folder holds checkpoints of " +
+                      std::to_string(newest_of_case.size()) + " cases (the newest of each: " + newest_files +
+                      "); give the checkpoint file");
+  }
+  return (std::filesystem::path(folder) / newest_of_case.begin()->second.file).string();
 }
 
 std::string read_checkpoint_case(const std::string& path) {

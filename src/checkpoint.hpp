@@ -47,6 +47,11 @@ struct RestartState {
 // a readable checkpoint holding one.
 std::string read_checkpoint_case(const std::string& path);
 
+// What `--restart FOLDER` continues from: the newest (highest step) <case>_checkpoint_<step>.h5 in
+// the folder, so a chain of batch jobs need not know the step its predecessor stopped at.
+// ConfigError naming the folder when it holds no checkpoint, or checkpoints of more than one case.
+std::string newest_checkpoint_in(const std::string& folder);
+
 // Writes <directory>/<case>_checkpoint_<step>.h5 (collective) and deletes all but the newest
 // `keep` checkpoints of the case (0: keeps all). Returns the path.
 std::string write_checkpoint(const std::string& directory, const std::string& case_name, const Solver& solver,

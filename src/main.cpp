@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <iostream>
 #include <sstream>
 #include <string>
@@ -104,8 +105,30 @@ void check_same_command_line(const CommandLine& cl, const mpmflow::ParallelConte
                                "--wall-time or --overwrite); expected the same on every rank");
 }
 
+// --restart FOLDER: the newest checkpoint in it (newest_checkpoint_in), chosen by rank 0 for every
+// rank. After check_same_command_line, which compares what the ranks were given.
+void resolve_restart_folder(CommandLine& cl, const mpmflow::ParallelContext& context) {
+#ifdef MPMFLOW_HAVE_HDF5
+  std::string error, path = cl.restart_file;
+  std::error_code not_a_folder;
+  if (context.is_root() && !path.empty() && std::filesystem::is_directory(path, not_a_folder)) {
+    try {
+      path = mpmflow::newest_checkpoint_in(path);
+    } catch (const mpmflow::ConfigError& e) {
+      error = e.what();
+    }
+  }
+  context.broadcast(error);
+  if (!error.empty()) throw mpmflow::ConfigError(error);
+  context.broadcast(path);
+  cl.restart_file = path;
+#else
+  (void)cl;
+  (void)context;
+#endif
+}
+
 mpmflow::CaseConfig load_case_on_root(const CommandLine& cl, const mpmflow::ParallelContext& context) {
-  check_same_command_line(cl, context);
   std::string error, text, files;
   mpmflow::CaseConfig config;
   if (context.is_root()) {
@@ -173,8 +196,10 @@ void define_command_line(CLI::App& app, CommandLine& cl) {
       ->type_name("SECONDS")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  run->add_option("--restart", cl.restart_file, "continue from a checkpoint (output/checkpoint_interval writes them)")
-      ->type_name("CHECKPOINT.h5");
+  run->add_option("--restart", cl.restart_file,
+                  "continue from a checkpoint (output/checkpoint_interval writes them), or from the newest "
+                  "checkpoint in a folder")
+      ->type_name("CHECKPOINT.h5|FOLDER");
   run->add_option_function<std::string>(
          "--wall-time",
          [&cl](const std::string& text) {
@@ -318,7 +343,10 @@ int main(int argc, char** argv) {
           if (app.get_subcommand("run")->count("--restart") > 0 && cl.restart_file.empty())
             throw UsageError{"--restart expects a checkpoint file; got an empty name"};
           if (cl.case_file.empty() && cl.restart_file.empty())
-            throw UsageError{"run needs a case file (CASE), or --restart CHECKPOINT.h5 to continue a run"};
+            throw UsageError{"run needs a case file (CASE), or --restart CHECKPOINT.h5 (or a folder holding "
+                             "checkpoints) to continue a run"};
+          check_same_command_line(cl, context);
+          resolve_restart_folder(cl, context);
           const mpmflow::CaseConfig config = load_case_on_root(cl, context);
           const std::string device = choose_device(kokkos_args, context);
           std::vector<char*> kokkos_argv;
@@ -328,6 +356,7 @@ int main(int argc, char** argv) {
           kokkos_initialized = true;
           status = run_case(cl, config, device);
         } else if (app.got_subcommand("case")) {
+          check_same_command_line(cl, context);
           const mpmflow::CaseConfig config = load_case_on_root(cl, context);
           if (root) std::cout << mpmflow::effective_case_json(config) << "\n";
         } else {

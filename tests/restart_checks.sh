@@ -2,6 +2,8 @@
 # ctest: what a restart accepts. From a checkpoint of the Sod case at step 40 (t ~ 0.087 of 0.143):
 # - without a case file it runs the checkpoint's own case, and ends bitwise where an uninterrupted
 #   run ends;
+# - given a folder instead of a file, it continues from the folder's newest checkpoint (bitwise as
+#   above), and refuses a folder with none or with checkpoints of two cases, naming the folder;
 # - another snapshot count (the output schedule may change) writes the next snapshot at the first
 #   time of the new schedule after the checkpoint's, and the run ends there;
 # - another gamma (a physics key) is refused, naming the key (exit 2, nothing run);
@@ -24,6 +26,37 @@ cp -r "$work_dir/first" "$work_dir/resumed"
 /usr/bin/python3 "$source_dir/tools/compare_outputs.py" "$work_dir/whole" "$work_dir/resumed" --exact | tail -1
 /usr/bin/python3 "$source_dir/tools/compare_outputs.py" "$work_dir/whole" "$work_dir/resumed" --exact > /dev/null \
   || { echo "FAIL: a restart without a case file does not end bitwise where the whole run ends"; exit 1; }
+
+# A folder instead of a file: its newest checkpoint. With the run's last checkpoint gone from a
+# copy of its folder, the newest is step 40's, and the run ends bitwise where the whole one ends.
+cp -r "$work_dir/first" "$work_dir/from_folder"
+last_checkpoint=$(ls "$work_dir"/from_folder/sod_checkpoint_*.h5 | tail -1)
+[ "$(basename "$last_checkpoint")" != "$(basename "$checkpoint")" ] \
+  || { echo "FAIL: the first run wrote no checkpoint after step 40"; exit 1; }
+"$binary" run --restart "$work_dir/from_folder" --output "$work_dir/from_folder" > "$work_dir/from_folder_last.log"
+grep -q "restart from $last_checkpoint: step" "$work_dir/from_folder_last.log" \
+  || { echo "FAIL: --restart FOLDER did not take the newest checkpoint, $last_checkpoint"; exit 1; }
+rm "$last_checkpoint"
+"$binary" run --restart "$work_dir/from_folder" --output "$work_dir/from_folder" > "$work_dir/from_folder.log"
+grep "restart from" "$work_dir/from_folder.log"
+grep -q "restart from $work_dir/from_folder/$(basename "$checkpoint"): step 40," "$work_dir/from_folder.log" \
+  || { echo "FAIL: --restart FOLDER did not take the newest checkpoint left, step 40's"; exit 1; }
+/usr/bin/python3 "$source_dir/tools/compare_outputs.py" "$work_dir/whole" "$work_dir/from_folder" --exact > /dev/null \
+  || { echo "FAIL: a restart from a folder does not end bitwise where the whole run ends"; exit 1; }
+# A folder with no checkpoint, and one with checkpoints of two cases (the continued run above has
+# written its last checkpoint again): refused (exit 2), naming the folder.
+mkdir -p "$work_dir/no_checkpoint"
+cp "$checkpoint" "$work_dir/from_folder/another_case_checkpoint_000000007.h5"
+for folder in no_checkpoint from_folder; do
+  status=0
+  "$binary" run --restart "$work_dir/$folder" > "$work_dir/$folder.refused.log" 2>&1 || status=$?
+  tail -1 "$work_dir/$folder.refused.log"
+  [ "$status" -eq 2 ] && grep -q "mpmflow: error: --restart $work_dir/$folder: " "$work_dir/$folder.refused.log" \
+    || { echo "FAIL: --restart $folder was not refused naming the folder (exit $status)"; exit 1; }
+done
+grep -q "the folder holds none" "$work_dir/no_checkpoint.refused.log" \
+  && grep -q "checkpoints of 2 cases (the newest of each: another_case_checkpoint_000000007.h5, $(basename "$last_checkpoint"))" \
+    "$work_dir/from_folder.refused.log" || { echo "FAIL: the refusals do not say what the folders hold"; exit 1; }
 
 # Another snapshot count: 10 instead of 4: the next output is the first of the new schedule after the checkpoint.
 t_checkpoint=$(/usr/bin/python3 -c "import h5py,sys; print(h5py.File(sys.argv[1]).attrs['time'])" "$checkpoint")
