@@ -11,24 +11,18 @@
 namespace mpmflow {
 namespace {
 
-// The nodes of `line` that are nodes of the domain (not the ghost nodes beyond its corners).
-IndexRange2D within_domain(const GridSlab& slab, const IndexRange2D& line) {
-  const IndexRange2D domain = slab.domain_node_space();
-  return {std::max(line.begin_x, domain.begin_x), std::min(line.end_x, domain.end_x),
-          std::max(line.begin_y, domain.begin_y), std::min(line.end_y, domain.end_y)};
-}
-
 // Whether gas outside the side presses on it at the free-stream pressure: outflow and far field.
 bool pressure_side(BoundaryType type) { return type == BoundaryType::outflow || type == BoundaryType::far_field; }
 
 // The node lines a side's condition visits (some may be empty on this slab): the side's line and
-// the ghost lines beyond it, which GIMP stencils reach, for an inflow side or a slip wall; the
-// side's line within the domain for a pressure side (apply_side_pressure). The one list that the
+// the ghost lines beyond it, which GIMP stencils reach, all along the side. The one list that the
 // conditions and the energy budget's nodes (GridBoundaryConditions::conditioned_nodes) share.
+// A pressure side's take in the line inside too (PressureSideNodes).
 std::vector<IndexRange2D> condition_lines(const GridSlab& slab, BoundaryType type, Side side) {
-  if (pressure_side(type)) return {within_domain(slab, slab.boundary_node_line(side, 0))};
   std::vector<IndexRange2D> lines;
-  for (int layer = 0; layer <= GridSlab::ghost_layers; ++layer) lines.push_back(slab.boundary_node_line(side, layer));
+  const int first_layer = pressure_side(type) ? -PressureSideNodes::inner_layers : 0;
+  for (int layer = first_layer; layer <= GridSlab::ghost_layers; ++layer)
+    lines.push_back(slab.boundary_node_line(side, layer));
   return lines;
 }
 
@@ -49,61 +43,105 @@ IndexRange2D condition_band(const GridSlab& slab, BoundaryType type, Side side) 
 }
 
 // The free-stream pressure on the outflow and far-field sides, as the gas outside acts on the
-// nodes of the side: the force on node (i, j) (a struct rather than a private member: CUDA forbids
+// nodes there: the force on node (i, j) (a struct rather than a private member: CUDA forbids
 // device lambdas in private members).
 //
-// The gas outside is a continuum at the free-stream state. Its stress contributes
-//   f_i = -\int_outside sigma grad N_i dA = -p_inf n \int_side N_i ds
-// to the side's nodes (one node spacing per node, half of one at the side's ends) and nothing to
-// the ghost nodes beyond, whose shape functions vanish on the side. Its mass contributes inertia:
-// a side node's dual cell lies half outside (three quarters at a corner of two such sides), and
-// the gas there, moving with the node, takes its share of the node's force. The node's
-// acceleration is then f / (m + m_outside), with f the particles' force plus the traction; the
-// velocity the particles give the node is kept (the gas outside moves with it). A side node whose
-// particles have thinned out (gas leaving along a side parallel to the flow) thus still feels the
-// traction, and is pushed inwards until the gas fills the side again, by an acceleration no larger
-// than that of a node holding the gas outside alone. (With the traction scaled by the node's
-// share of a full node's mass instead, a thinning side lost ever more traction and drained
-// the tunnel; with the traction whole on the particles' mass alone, nearly empty nodes threw
-// particles into the domain.)
+// The gas outside is a continuum at the free-stream state. Where gas leaves (an outlet side:
+// PressureSideNodes::outlet, and the gas at the side's node moving out), the last particles reach
+// past the side until their centres cross it and fall short of it once they have gone; the gas
+// outside fills what they leave uncovered. Its stress contributes
+//   f_i = -\int_outside sigma grad N_i dA = p_inf \int_outside grad N_i dA = -p_inf g_i,
+// g_i = \int_particles grad N_i dA = sum_p (M / rho) grad phi_i (GIMP's weights are averages over
+// the particle's domain; the shape functions vanish far off), to the nodes whose shape functions
+// reach the uncovered part: the side's line, the line inside it and the ghost line beyond. Their
+// force is then sum_p (P + Q - p_inf) (M / rho) grad phi_i: nothing for gas at the free-stream
+// pressure, wherever the last particles end. (With the traction below there, the ghost nodes
+// felt the particles reaching past the side unopposed, and the line inside those falling short:
+// a uniform stream at Mach 0.42 leaving through the side drew a rarefaction from it, pressure 0.95
+// of the free stream's, and lost 3.4 % of its mass by t = 2: README, Wind tunnel.)
+// Elsewhere (gas at rest or entering, where the entering lattice keeps the gas up to the side, and
+// on sides the free stream does not leave through) the gas outside acts on the side as a traction,
+// f_i -= p_inf n \int_side N_i ds on the side's nodes. (The gauge there too let the particles
+// crowd along far-field sides where gas enters: with the free-stream pressure taken out of their
+// forces, particles that overlap no longer push apart, and a tunnel whose gas entered through its
+// bottom at Mach 0.1 gained 10 % of its mass by t = 2.)
+// Its mass contributes inertia: the part of a node's dual cell beyond a pressure side (half of a
+// side node's, all of a ghost node's) holds gas that moves with the node and takes its share of
+// the node's force. The node's acceleration is then f / (m + m_outside); the velocity the particles
+// give the node is kept. A side node whose particles have thinned out (gas leaving along a side
+// parallel to the flow) thus still feels the gas outside, and is pushed inwards until the gas fills
+// the side again, by an acceleration no larger than that of a node holding the gas outside alone.
+// (With the traction scaled by the node's share of a full node's mass instead, a thinning side
+// lost ever more of it and drained the tunnel; with the traction whole on the particles' mass
+// alone, nearly empty nodes threw particles into the domain.)
 struct SidePressure {
   // Per axis: whether the domain's low and high sides are pressure sides.
   bool left = false, right = false, bottom = false, top = false;
-  index_t first_x = 0, last_x = 0, first_y = 0, last_y = 0;  // the domain's first and last local node lines
+  PressureSideNodes nodes;
+  Kokkos::View<const long long*, DeviceType> gradients;  // in nodes' units, nodes.entry(i, j) on
   real_t hx = 0, hy = 0, p_inf = 0, rho_inf = 0;
+  index_t row_stride = 0;  // nodes_x
 
   SidePressure() = default;  // no pressure side (step 9's bands hold none)
-  SidePressure(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type, const GasState& free_stream)
+  SidePressure(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type, const GasState& free_stream,
+               const PressureSideNodes& nodes_, const Kokkos::View<long long*, DeviceType>& gradients_)
       : left(pressure_side(side_type[left_side])),
         right(pressure_side(side_type[right_side])),
         bottom(pressure_side(side_type[bottom_side])),
         top(pressure_side(side_type[top_side])),
-        first_x(slab.local_node_x(0)),
-        last_x(slab.local_node_x(slab.global_cells_x)),
-        first_y(slab.local_node_y(0)),
-        last_y(slab.local_node_y(slab.global_cells_y)),
+        nodes(nodes_),
+        gradients(gradients_),
         hx(slab.geometry.spacing_x),
         hy(slab.geometry.spacing_y),
         p_inf(free_stream.pressure),
-        rho_inf(free_stream.density) {}
+        rho_inf(free_stream.density),
+        row_stride(slab.geometry.nodes_x) {}
+
+  // Along one axis, of the dual cell of global node g (of `cells` cells, spacing h): the length
+  // within the domain, and the length that holds gas (within the domain, or beyond a pressure side).
+  KOKKOS_INLINE_FUNCTION static void dual_cell(index_t g, index_t cells, real_t h, bool low_is_pressure,
+                                               bool high_is_pressure, real_t& inside, real_t& gas) {
+    inside = g > 0 && g < cells ? h : (g == 0 || g == cells ? h / 2 : real_t(0));
+    const bool beyond_outside = (g <= 0 && low_is_pressure) || (g >= cells && high_is_pressure);
+    gas = beyond_outside ? h : inside;
+  }
 
   KOKKOS_INLINE_FUNCTION void operator()(const NodeFieldsView& state, index_t node, index_t i, index_t j) const {
-    // The node's dual cell [x_i - hx/2, x_i + hx/2] x [...]: its extent within the gas (beyond
-    // a slip wall or an inflow side there is none) and within the domain.
-    const bool at_left = i == first_x, at_right = i == last_x, at_bottom = j == first_y, at_top = j == last_y;
-    const real_t gas_x = hx - ((at_left && !left) || (at_right && !right) ? hx / 2 : real_t(0));
-    const real_t gas_y = hy - ((at_bottom && !bottom) || (at_top && !top) ? hy / 2 : real_t(0));
-    const real_t inside_x = gas_x - ((at_left && left) || (at_right && right) ? hx / 2 : real_t(0));
-    const real_t inside_y = gas_y - ((at_bottom && bottom) || (at_top && top) ? hy / 2 : real_t(0));
-    // Traction: the length of the node's dual cell along each pressure side it lies on.
+    int slot = 0;
+    const index_t entry = nodes.entry(i, j, slot);
+    const int s = nodes.side[slot];
+    // The node of the side's own line at the same place along it, and whether the gas leaves there.
+    const bool across_x = s == left_side || s == right_side;
+    const index_t side_i = across_x ? (s == left_side ? 0 : nodes.cells_x) - nodes.node_offset_x : i;
+    const index_t side_j = across_x ? j : (s == bottom_side ? 0 : nodes.cells_y) - nodes.node_offset_y;
+    const index_t side_node = node + (side_i - i) + (side_j - j) * row_stride;
+    const bool side_node_held = side_i >= 0 && side_i < row_stride && side_j >= 0 && side_node < state.extent(0);
+    const real_t outward =
+        !side_node_held ? real_t(0)
+        : across_x      ? (s == left_side ? -1 : 1) * state(side_node, GridFields::momentum_x)
+                        : (s == bottom_side ? -1 : 1) * state(side_node, GridFields::momentum_y);
+    const index_t gi = i + nodes.node_offset_x, gj = j + nodes.node_offset_y;
+    const bool in_domain = gi >= 0 && gi <= nodes.cells_x && gj >= 0 && gj <= nodes.cells_y;
     real_t fx = state(node, GridFields::force_x), fy = state(node, GridFields::force_y);
-    if (at_left && left) fx += p_inf * inside_y;
-    if (at_right && right) fx -= p_inf * inside_y;
-    if (at_bottom && bottom) fy += p_inf * inside_x;
-    if (at_top && top) fy -= p_inf * inside_x;
+    real_t inside_x, gas_x, inside_y, gas_y;
+    dual_cell(gi, nodes.cells_x, hx, left, right, inside_x, gas_x);
+    dual_cell(gj, nodes.cells_y, hy, bottom, top, inside_y, gas_y);
+    if (nodes.outlet[slot] && outward > 0) {
+      fx -= p_inf * nodes.unit * real_t(gradients(entry));
+      fy -= p_inf * nodes.unit * real_t(gradients(entry + 1));
+    } else {
+      // The traction on the nodes of the domain's pressure sides (both at a corner of two), as
+      // if the gauge had never reached here: the other lines keep their force.
+      if (!in_domain) return;
+      if (left && gi == 0) fx += p_inf * inside_y;
+      if (right && gi == nodes.cells_x) fx -= p_inf * inside_y;
+      if (bottom && gj == 0) fy += p_inf * inside_x;
+      if (top && gj == nodes.cells_y) fy -= p_inf * inside_x;
+    }
     const real_t outside_mass = rho_inf * (gas_x * gas_y - inside_x * inside_y);
     const real_t m = state(node, GridFields::mass);
-    const real_t inertia_share = m / (m + outside_mass);
+    // (A node with neither particles nor gas outside, beyond a wall's corner: its force stays.)
+    const real_t inertia_share = m + outside_mass > 0 ? m / (m + outside_mass) : real_t(1);
     state(node, GridFields::force_x) = fx * inertia_share;
     state(node, GridFields::force_y) = fy * inertia_share;
   }
@@ -116,17 +154,20 @@ SideConditionBands side_condition_bands(const GridSlab& slab, const std::array<B
                                         bool with_pressure) {
   SideConditionBands bands;
   if (with_pressure) {
+    // A corner's nodes (those of both sides' lines) are the left or right side's, as
+    // PressureSideNodes::entry numbers them.
     const bool left = pressure_side(side_type[left_side]), right = pressure_side(side_type[right_side]);
-    const index_t first_x = slab.local_node_x(0), last_x = slab.local_node_x(slab.global_cells_x);
+    const index_t inner = PressureSideNodes::inner_layers;
+    const index_t past_left = slab.local_node_x(inner + 1), before_right = slab.local_node_x(slab.global_cells_x - inner);
     for (int s = 0; s < num_sides; ++s) {
       if (!pressure_side(side_type[s])) continue;
       const Side side = static_cast<Side>(s);
-      IndexRange2D line = condition_lines(slab, side_type[s], side).front();
+      IndexRange2D band = condition_band(slab, side_type[s], side);
       if (side == bottom_side || side == top_side) {
-        if (left) line.begin_x = std::max(line.begin_x, first_x + 1);
-        if (right) line.end_x = std::min(line.end_x, last_x);
+        if (left) band.begin_x = std::max(band.begin_x, past_left);
+        if (right) band.end_x = std::min(band.end_x, before_right);
       }
-      bands.add(line, SideCondition::pressure, 0);
+      bands.add(band, SideCondition::pressure, 0);
     }
   }
   for (const BoundaryType type : {BoundaryType::inflow, BoundaryType::slip_wall})
@@ -278,10 +319,60 @@ GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const G
       free_stream_(config.boundaries.free_stream),
       obstacles_(obstacles),
       bands_with_pressure_(side_condition_bands(slab, side_type_, /*with_pressure=*/true)),
-      bands_without_pressure_(side_condition_bands(slab, side_type_, /*with_pressure=*/false)) {}
+      bands_without_pressure_(side_condition_bands(slab, side_type_, /*with_pressure=*/false)),
+      pressure_side_nodes_(slab, side_type_, free_stream_),
+      pressure_side_gradients_("pressure_side_gradients", pressure_side_nodes_.entries),
+      pressure_side_gradients_host_(host_mirror(pressure_side_gradients_)) {}
+
+PressureSideNodes::PressureSideNodes(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
+                                     const GasState& free_stream)
+    : node_offset_x(slab.node_offset_x),
+      node_offset_y(slab.node_offset_y),
+      cells_x(slab.global_cells_x),
+      cells_y(slab.global_cells_y),
+      // 2^-40 of a cell: a gradient sum is at most a few cells' widths, far below 2^23 of them.
+      unit(slab.cell_size() / real_t(1099511627776.0)),
+      inverse_unit(1 / unit) {
+  const DomainBox domain(slab);
+  for (int s = 0; s < num_sides; ++s) {
+    if (!pressure_side(side_type[s])) continue;
+    side[count] = s;
+    const real_t outward_speed = s == left_side ? -free_stream.velocity_x : s == right_side ? free_stream.velocity_x
+                                 : s == bottom_side ? -free_stream.velocity_y : free_stream.velocity_y;
+    outlet[count] = side_type[s] == BoundaryType::outflow || outward_speed > 0;
+    any_outlet |= outlet[count];
+    if (outlet[count]) {
+      // A GIMP or B-spline particle reaches the nodes within 1.5 cells of it (half a cell of its
+      // own, the shape function's cell beyond), a linear one those within a cell; the lines held
+      // reach inner_layers cells inside the side.
+      const bool across_x = s == left_side || s == right_side;
+      const real_t sign = s == left_side || s == bottom_side ? 1 : -1;
+      depth_x[count] = across_x ? sign : real_t(0);
+      depth_y[count] = across_x ? real_t(0) : sign;
+      depth_c[count] = s == left_side    ? -domain.x_min
+                       : s == right_side ? domain.x_max
+                       : s == bottom_side ? -domain.y_min
+                                          : domain.y_max;
+      reach[count] = real_t(1.5 + inner_layers) * (across_x ? slab.geometry.spacing_x : slab.geometry.spacing_y);
+    }
+    first_entry[count] = entries;
+    entries += 2 * layers * nodes_along(s == left_side || s == right_side ? cells_y : cells_x);
+    ++count;
+  }
+}
+
+void GridBoundaryConditions::clear_pressure_side_gradients() const { fill_in_order(pressure_side_gradients_, 0LL); }
+
+void GridBoundaryConditions::sum_pressure_side_gradients(const ParallelContext& context) const {
+  if (!context.distributed() || pressure_side_nodes_.entries == 0) return;
+  Kokkos::deep_copy(pressure_side_gradients_host_, pressure_side_gradients_);
+  context.sum_in_place(pressure_side_gradients_host_.data(), static_cast<int>(pressure_side_nodes_.entries));
+  Kokkos::deep_copy(pressure_side_gradients_, pressure_side_gradients_host_);
+}
 
 void GridBoundaryConditions::apply_to_momentum_and_force(const NodeFieldsView& state, ObstacleForces* forces) const {
-  apply_side_conditions(slab_.geometry, bands_with_pressure_, SidePressure(slab_, side_type_, free_stream_),
+  apply_side_conditions(slab_.geometry, bands_with_pressure_,
+                        SidePressure(slab_, side_type_, free_stream_, pressure_side_nodes_, pressure_side_gradients_),
                         free_stream_, state, GridFields::momentum_x, state, /*with_force=*/true);
   if (forces) add_obstacle_forces(obstacles_, state, *forces);
   remove_normal_component(obstacles_, state, GridFields::momentum_x, GridFields::force_x);

@@ -7,6 +7,7 @@
 #include "case_config.hpp"
 #include "geometry.hpp"
 #include "grid.hpp"
+#include "parallel.hpp"
 #include "particles.hpp"
 
 namespace mpmflow {
@@ -56,9 +57,12 @@ struct DomainBox {
 // reach):
 // - inflow: the node velocity is the free stream, momentum = node mass x v_inf, no force;
 // - outflow and far field: nothing imposed on the velocity; the gas outside, which the particles
-//   do not represent, acts at the free-stream state: its pressure as a traction on the side,
-//   f_i -= p_inf n \int_side N_i ds (a free stream at rest is then in equilibrium), its mass as
-//   inertia of the side nodes, whose acceleration is f / (m + m_outside);
+//   do not represent, acts at the free-stream state: its pressure where the gas leaves through
+//   an outlet on what the particles leave uncovered, f_i -= p_inf g_i with
+//   g_i = sum_p (M / rho) grad phi_i on the side's line, the line inside and the ghost line
+//   beyond (PressureSideNodes), elsewhere as a traction on the side, f_i -= p_inf n \int_side N_i
+//   ds (a free stream at rest is in equilibrium either way); its mass as inertia of those nodes,
+//   whose acceleration is f / (m + m_outside);
 // - slip wall: the wall-normal component is removed.
 // Then, on nodes inside an obstacle, the normal component is removed (eqs. 21-22 remove only its
 // inward part: boundary_conditions.cpp says why not).
@@ -84,6 +88,74 @@ struct SideConditionBands {
   void add(const IndexRange2D& nodes, SideCondition c, int axis);
 };
 
+// The nodes of the pressure sides (outflow, far field) on which the gas outside acts, and where
+// the particles' volume gradients g_i = sum_p (M / rho) grad phi_i are summed for it (SidePressure,
+// boundary_conditions.cpp): each such side's node line, the line inside it (the last particles
+// fall up to a cell short of the side once their centres have crossed it) and the ghost lines
+// beyond it, all along the side (the ghost nodes beyond its corners included); a node of two such
+// sides is the first's (left, right, bottom, top). Every slab numbers them alike, by global node:
+// entry(i, j) of local node (i, j) is the first of its two sums (x, y), or -1 where no pressure
+// side holds it. The sums are integers in units of `unit` (a length), so that they are the same
+// bits whatever the order of the particles, the threads and the ranks that add them.
+struct PressureSideNodes {
+  static constexpr int inner_layers = 1;  // node lines inside the side
+  static constexpr int layers = inner_layers + 1 + GridSlab::ghost_layers;
+  int count = 0;
+  Kokkos::Array<int, num_sides> side = {};
+  // Whether the free stream leaves through the side (an outflow side, or a far-field side it
+  // crosses outwards).
+  Kokkos::Array<bool, num_sides> outlet = {};
+  bool any_outlet = false;
+  Kokkos::Array<index_t, num_sides> first_entry = {};
+  index_t entries = 0;
+  index_t node_offset_x = 0, node_offset_y = 0, cells_x = 0, cells_y = 0;
+  real_t unit = 0, inverse_unit = 0;
+  // The particles whose stencils may hold an outlet's nodes: those within reach of it, where
+  // depth_x[k] x + depth_y[k] y + depth_c[k] (how deep inside outlet k a point lies) is below
+  // reach[k]; the other entries never hold (no outlet there), so that the test runs over all
+  // four in vector lanes.
+  Kokkos::Array<real_t, num_sides> depth_x = {}, depth_y = {}, depth_c = {}, reach = {};
+
+  PressureSideNodes() = default;
+  PressureSideNodes(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
+                    const GasState& free_stream);
+
+  KOKKOS_INLINE_FUNCTION static index_t nodes_along(index_t cells) { return cells + 1 + 2 * GridSlab::ghost_layers; }
+  KOKKOS_INLINE_FUNCTION index_t entry(index_t i, index_t j) const {
+    int slot;
+    return entry(i, j, slot);
+  }
+  // The same, with the side that holds the node (its place in side[]).
+  KOKKOS_INLINE_FUNCTION index_t entry(index_t i, index_t j, int& slot) const {
+    const index_t gi = i + node_offset_x, gj = j + node_offset_y;
+    for (int k = 0; k < count; ++k) {
+      const int s = side[k];
+      const bool across_x = s == left_side || s == right_side;
+      const index_t layer =
+          inner_layers + (s == left_side ? -gi : s == right_side ? gi - cells_x : s == bottom_side ? -gj : gj - cells_y);
+      const index_t along = (across_x ? gj : gi) + GridSlab::ghost_layers;
+      const index_t along_count = nodes_along(across_x ? cells_y : cells_x);
+      if (layer >= 0 && layer < layers && along >= 0 && along < along_count) {
+        slot = k;
+        return first_entry[k] + 2 * (layer * along_count + along);
+      }
+    }
+    return -1;
+  }
+  // (Only the outlets' nodes take the sums, SidePressure: particles near the other sides are left
+  // out.)
+  KOKKOS_INLINE_FUNCTION bool within_reach(real_t x, real_t y) const {
+    bool near = false;
+    for (int k = 0; k < num_sides; ++k) near |= depth_x[k] * x + depth_y[k] * y + depth_c[k] < reach[k];
+    return near;
+  }
+  // A length in units, rounded to the nearest.
+  KOKKOS_INLINE_FUNCTION long long units(real_t length) const {
+    const real_t scaled = length * inverse_unit;
+    return static_cast<long long>(scaled >= 0 ? scaled + real_t(0.5) : scaled - real_t(0.5));
+  }
+};
+
 class GridBoundaryConditions {
  public:
   GridBoundaryConditions() = default;
@@ -99,6 +171,14 @@ class GridBoundaryConditions {
   // energy budget's work of the conditions is a sum over these alone: boundary_work.)
   IndexView conditioned_nodes(const IndexRange2D& within) const;
 
+  // The pressure sides' nodes and their volume gradients, which step 4 needs: cleared, filled by
+  // TransferKernels::add_pressure_side_volume_gradients from this slab's particles, summed over the
+  // ranks (sum_pressure_side_gradients), then read by apply_to_momentum_and_force.
+  const PressureSideNodes& pressure_side_nodes() const { return pressure_side_nodes_; }
+  const Kokkos::View<long long*, DeviceType>& pressure_side_gradients() const { return pressure_side_gradients_; }
+  void clear_pressure_side_gradients() const;
+  void sum_pressure_side_gradients(const ParallelContext& context) const;
+
  private:
   GridSlab slab_;
   std::array<BoundaryType, num_sides> side_type_ = {};
@@ -106,6 +186,9 @@ class GridBoundaryConditions {
   ObstacleGrid obstacles_;
   // The sides' rectangles for step 4 (with the pressure sides) and for step 9 (without).
   SideConditionBands bands_with_pressure_, bands_without_pressure_;
+  PressureSideNodes pressure_side_nodes_;
+  Kokkos::View<long long*, DeviceType> pressure_side_gradients_;
+  Kokkos::View<long long*, DeviceType>::HostMirror pressure_side_gradients_host_;
 };
 
 // A particle's cell, which the next step's kernels start from: its local cell, or left_the_domain

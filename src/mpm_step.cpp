@@ -36,7 +36,14 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
   {  // 4. boundary conditions on mv and f; obstacles (eqs. 21-22, the whole normal component)
     auto t = timers.scope(Phase::boundary_conditions);
     if (energy_budget) keep_momentum_and_force_before_conditions(grid);
-    slab.grid_boundaries().apply_to_momentum_and_force(grid.state, &s.obstacle_forces);
+    const GridBoundaryConditions& conditions = slab.grid_boundaries();
+    if (conditions.pressure_side_nodes().any_outlet) {  // the particles' cover of the outlets' nodes
+      conditions.clear_pressure_side_gradients();
+      transfers.add_pressure_side_volume_gradients(particles, conditions.pressure_side_nodes(),
+                                                   conditions.pressure_side_gradients());
+      conditions.sum_pressure_side_gradients(slab.context());
+    }
+    conditions.apply_to_momentum_and_force(grid.state, &s.obstacle_forces);
   }
   {  // 5. (mv)' = mv + dt f; V-bar = (mv)' / m and A = f / m on the nodes; the momentum columns
      // cleared for the remap of step 8

@@ -396,6 +396,48 @@ GimpShape make_shape<GimpShape>(const CaseConfig& config, const GridGeometry& ge
                    geometry.spacing_y / (2 * config.particles.per_cell_y), RealView(), RealView()};
 }
 
+// ---- The pressure sides' volume gradients ----------------------------------------------------
+
+// TransferKernels::add_pressure_side_volume_gradients with the case's shape. Through a ScatterView
+// of integers: their sums are the same in any order (PressureSideNodes).
+template <class Shape>
+void sum_pressure_side_volume_gradients(const Shape& shape, const ParticleState& pt, const PressureSideNodes& nodes,
+                                        const Kokkos::View<long long*, DeviceType>& gradients) {
+  // The test reads one coordinate where the outlets all lie across one axis (a tunnel's outlet on
+  // its right): the pass reads the positions, and half of them where it can.
+  bool across_x = false, across_y = false;
+  for (int k = 0; k < num_sides; ++k) across_x |= nodes.depth_x[k] != 0, across_y |= nodes.depth_y[k] != 0;
+  if (!(across_x || across_y) || pt.count == 0) return;  // no outlet
+  const RealView x = pt.position_x, y = pt.position_y, mass = pt.mass, density = pt.density;
+  const IndexView cell = pt.cell;
+  const GridGeometry geometry = shape.grid.geometry;
+  auto scatter = Kokkos::Experimental::create_scatter_view(gradients);
+  const auto add_particle = KOKKOS_LAMBDA(const index_t p) {
+    const auto stencil = shape(p, cell(p), x(p), y(p));
+    const real_t volume = mass(p) / density(p);
+    auto access = scatter.access();
+    for (int k = 0; k < stencil.size; ++k) {
+      const index_t node = stencil.node(k);
+      const index_t entry = nodes.entry(geometry.node_i_of(node), geometry.node_j_of(node));
+      if (entry < 0) continue;
+      access(entry) += nodes.units(volume * stencil.grad_x(k));
+      access(entry + 1) += nodes.units(volume * stencil.grad_y(k));
+    }
+  };
+  const char* label = "pressure_side_volume_gradients";
+  if (!across_y)
+    for_each_index_where(label, 0, pt.count, KOKKOS_LAMBDA(const index_t p) { return nodes.within_reach(x(p), 0); },
+                         add_particle);
+  else if (!across_x)
+    for_each_index_where(label, 0, pt.count, KOKKOS_LAMBDA(const index_t p) { return nodes.within_reach(0, y(p)); },
+                         add_particle);
+  else
+    for_each_index_where(label, 0, pt.count,
+                         KOKKOS_LAMBDA(const index_t p) { return nodes.within_reach(x(p), y(p)); }, add_particle);
+  Kokkos::View<long long*, DeviceType> target = gradients;  // (contribute takes the View by non-const reference)
+  Kokkos::Experimental::contribute(target, scatter);
+}
+
 // ---- How P2G accumulates ----------------------------------------------------------------------
 
 // The state's momentum columns, where steps 6-8 remap the momentum: a View of their own (LayoutLeft:
@@ -578,6 +620,11 @@ class Transfers final : public TransferKernels {
                    InternalForce{pt.specific_energy, pt.artificial_viscosity, pt.mass, pt.density, gamma_});
     p2g_end(accumulation_.state(), fields_.state);
     in_doubt_.contribute_into(in_doubt_count_);
+  }
+
+  void add_pressure_side_volume_gradients(const ParticleState& pt, const PressureSideNodes& nodes,
+                                          const Kokkos::View<long long*, DeviceType>& gradients) const override {
+    sum_pressure_side_volume_gradients(current_shape(shape_, pt), pt, nodes, gradients);
   }
 
   index_t particles_in_doubt() const override {

@@ -80,6 +80,12 @@ class TransferKernels {
   // Writes no field of the step.
   virtual void p2g_output_projection(const ParticleState& particles, const NodeFieldsView& target) = 0;
 
+  // Step 4's g_i = sum_p (M / rho) grad phi_i on the pressure sides' nodes (PressureSideNodes, on
+  // which the gas outside acts: GridBoundaryConditions), added into `gradients` in its integer
+  // units: a pass over the positions, the stencils only of the particles within reach of a side.
+  virtual void add_pressure_side_volume_gradients(const ParticleState& particles, const PressureSideNodes& nodes,
+                                                  const Kokkos::View<long long*, DeviceType>& gradients) const = 0;
+
   // The P2G accumulation in use ("automatic" resolved for this execution space).
   virtual P2GStrategy strategy() const = 0;
   // Bytes held besides the grid fields: duplicated ScatterView copies, or the cell order.
