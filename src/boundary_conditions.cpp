@@ -64,7 +64,7 @@ IndexRange2D condition_band(const GridSlab& slab, BoundaryType type, Side side) 
 // f_i -= p_inf n \int_side N_i ds on the side's nodes. (The gauge there too let the particles
 // crowd along far-field sides where gas enters: with the free-stream pressure taken out of their
 // forces, particles that overlap no longer push apart, and a tunnel whose gas entered through its
-// bottom at Mach 0.1 gained 10 % of its mass by t = 2.)
+// far-field bottom, free stream (0.5, 0.1) at a sound speed of 1, gained 10 % of its mass by t = 2.)
 // Its mass contributes inertia: the part of a node's dual cell beyond a pressure side (half of a
 // side node's, all of a ghost node's) holds gas that moves with the node and takes its share of
 // the node's force. The node's acceleration is then f / (m + m_outside); the velocity the particles
@@ -78,7 +78,7 @@ struct SidePressure {
   // Per axis: whether the domain's low and high sides are pressure sides.
   bool left = false, right = false, bottom = false, top = false;
   PressureSideNodes nodes;
-  Kokkos::View<const long long*, DeviceType> gradients;  // in nodes' units, nodes.entry(i, j) on
+  Kokkos::View<const long long*, DeviceType> gradients;  // g_i in nodes' units, at nodes.entry(i, j)
   real_t hx = 0, hy = 0, p_inf = 0, rho_inf = 0;
   index_t row_stride = 0;  // nodes_x
 
