@@ -109,13 +109,15 @@ struct SidePressure {
   KOKKOS_INLINE_FUNCTION void operator()(const NodeFieldsView& state, index_t node, index_t i, index_t j) const {
     int slot = 0;
     const index_t entry = nodes.entry(i, j, slot);
+    if (entry < 0) return;  // (none: the pressure bands hold only nodes PressureSideNodes numbers)
     const int s = nodes.side[slot];
     // The node of the side's own line at the same place along it, and whether the gas leaves there.
     const bool across_x = s == left_side || s == right_side;
     const index_t side_i = across_x ? (s == left_side ? 0 : nodes.cells_x) - nodes.node_offset_x : i;
     const index_t side_j = across_x ? j : (s == bottom_side ? 0 : nodes.cells_y) - nodes.node_offset_y;
     const index_t side_node = node + (side_i - i) + (side_j - j) * row_stride;
-    const bool side_node_held = side_i >= 0 && side_i < row_stride && side_j >= 0 && side_node < state.extent(0);
+    const bool side_node_held =
+        side_i >= 0 && side_i < row_stride && side_j >= 0 && side_node < static_cast<index_t>(state.extent(0));
     const real_t outward =
         !side_node_held ? real_t(0)
         : across_x      ? (s == left_side ? -1 : 1) * state(side_node, GridFields::momentum_x)
