@@ -118,10 +118,11 @@ struct SidePressure {
     const index_t side_node = node + (side_i - i) + (side_j - j) * row_stride;
     const bool side_node_held =
         side_i >= 0 && side_i < row_stride && side_j >= 0 && side_node < static_cast<index_t>(state.extent(0));
-    const real_t outward =
-        !side_node_held ? real_t(0)
-        : across_x      ? (s == left_side ? -1 : 1) * state(side_node, GridFields::momentum_x)
-                        : (s == bottom_side ? -1 : 1) * state(side_node, GridFields::momentum_y);
+    real_t nx, ny;
+    inward_normal(s, nx, ny);
+    const real_t outward = side_node_held ? -(state(side_node, GridFields::momentum_x) * nx +
+                                              state(side_node, GridFields::momentum_y) * ny)
+                                          : real_t(0);
     const index_t gi = i + nodes.node_offset_x, gj = j + nodes.node_offset_y;
     const bool in_domain = gi >= 0 && gi <= nodes.cells_x && gj >= 0 && gj <= nodes.cells_y;
     real_t fx = state(node, GridFields::force_x), fy = state(node, GridFields::force_y);
@@ -160,7 +161,8 @@ SideConditionBands side_condition_bands(const GridSlab& slab, const std::array<B
     // PressureSideNodes::entry numbers them.
     const bool left = pressure_side(side_type[left_side]), right = pressure_side(side_type[right_side]);
     const index_t inner = PressureSideNodes::inner_layers;
-    const index_t past_left = slab.local_node_x(inner + 1), before_right = slab.local_node_x(slab.global_cells_x - inner);
+    const index_t past_left = slab.local_node_x(inner + 1);
+    const index_t before_right = slab.local_node_x(slab.global_cells_x - inner);
     for (int s = 0; s < num_sides; ++s) {
       if (!pressure_side(side_type[s])) continue;
       const Side side = static_cast<Side>(s);
@@ -339,18 +341,19 @@ PressureSideNodes::PressureSideNodes(const GridSlab& slab, const std::array<Boun
   for (int s = 0; s < num_sides; ++s) {
     if (!pressure_side(side_type[s])) continue;
     side[count] = s;
-    const real_t outward_speed = s == left_side ? -free_stream.velocity_x : s == right_side ? free_stream.velocity_x
-                                 : s == bottom_side ? -free_stream.velocity_y : free_stream.velocity_y;
-    outlet[count] = side_type[s] == BoundaryType::outflow || outward_speed > 0;
+    real_t nx, ny;
+    inward_normal(s, nx, ny);
+    const real_t inward_speed = free_stream.velocity_x * nx + free_stream.velocity_y * ny;
+    outlet[count] = side_type[s] == BoundaryType::outflow || inward_speed < 0;
     any_outlet |= outlet[count];
     if (outlet[count]) {
+      // How deep inside the side a point lies, n . (x - x_side), as DomainBox::depth_and_along_side.
       // A GIMP or B-spline particle reaches the nodes within 1.5 cells of it (half a cell of its
       // own, the shape function's cell beyond), a linear one those within a cell; the lines held
       // reach inner_layers cells inside the side.
       const bool across_x = s == left_side || s == right_side;
-      const real_t sign = s == left_side || s == bottom_side ? 1 : -1;
-      depth_x[count] = across_x ? sign : real_t(0);
-      depth_y[count] = across_x ? real_t(0) : sign;
+      depth_x[count] = nx;
+      depth_y[count] = ny;
       depth_c[count] = s == left_side    ? -domain.x_min
                        : s == right_side ? domain.x_max
                        : s == bottom_side ? -domain.y_min

@@ -12,6 +12,12 @@
 
 namespace mpmflow {
 
+// The inward unit normal of a side (grid.hpp's Side).
+KOKKOS_INLINE_FUNCTION void inward_normal(int side, real_t& nx, real_t& ny) {
+  nx = side == left_side ? 1 : (side == right_side ? -1 : 0);
+  ny = side == bottom_side ? 1 : (side == top_side ? -1 : 0);
+}
+
 // The domain [x_min, x_max] x [y_min, y_max] as particle kernels see it.
 struct DomainBox {
   real_t x_min = 0, x_max = 0, y_min = 0, y_max = 0;
@@ -131,8 +137,9 @@ struct PressureSideNodes {
     for (int k = 0; k < count; ++k) {
       const int s = side[k];
       const bool across_x = s == left_side || s == right_side;
-      const index_t layer =
-          inner_layers + (s == left_side ? -gi : s == right_side ? gi - cells_x : s == bottom_side ? -gj : gj - cells_y);
+      const index_t beyond =  // lines past the side (negative inside)
+          s == left_side ? -gi : s == right_side ? gi - cells_x : s == bottom_side ? -gj : gj - cells_y;
+      const index_t layer = inner_layers + beyond;
       const index_t along = (across_x ? gj : gi) + GridSlab::ghost_layers;
       const index_t along_count = nodes_along(across_x ? cells_y : cells_x);
       if (layer >= 0 && layer < layers && along >= 0 && along < along_count) {

@@ -15,12 +15,6 @@
 namespace mpmflow {
 namespace {
 
-// The inward unit normal of a side.
-KOKKOS_INLINE_FUNCTION void inward_normal(int side, real_t& nx, real_t& ny) {
-  nx = side == left_side ? 1 : (side == right_side ? -1 : 0);
-  ny = side == bottom_side ? 1 : (side == top_side ? -1 : 0);
-}
-
 // Whether a particle has left the domain, through a side that is open (the particle boundaries
 // keep particles inside at walls and obstacles, and mark those outside: its cell).
 struct LeftTheDomain {
