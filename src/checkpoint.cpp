@@ -22,7 +22,9 @@ namespace {
 
 using h5::Handle;
 
-std::string checkpoint_prefix(const std::string& case_name) { return case_name + "_checkpoint_"; }
+// A checkpoint's name: <case><checkpoint_infix><step, 9 digits or more>.h5.
+constexpr const char* checkpoint_infix = "_checkpoint_";
+std::string checkpoint_prefix(const std::string& case_name) { return case_name + checkpoint_infix; }
 
 }  // namespace
 
@@ -123,7 +125,7 @@ std::string write_checkpoint(const std::string& directory, const std::string& ca
 std::string newest_checkpoint_in(const std::string& folder) {
   // The names write_checkpoint gives: the case's name, then the step (zero-padded to 9 digits, more
   // beyond); at most 18 digits, which a long holds.
-  static const std::regex checkpoint_name(R"(^(.+)_checkpoint_(\d{1,18})\.h5$)");
+  static const std::regex checkpoint_name(std::string("^(.+)") + checkpoint_infix + R"((\d{1,18})\.h5$)");
   struct Newest {
     long step = -1;
     std::string file;
