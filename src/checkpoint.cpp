@@ -26,6 +26,17 @@ using h5::Handle;
 constexpr const char* checkpoint_infix = "_checkpoint_";
 std::string checkpoint_prefix(const std::string& case_name) { return case_name + checkpoint_infix; }
 
+// A file given to --restart that is not a checkpoint, refused saying what it is. Every checkpoint
+// holds next_snapshot (read_checkpoint reads it); a snapshot holds a layout, as no checkpoint does.
+void require_checkpoint(hid_t file, const std::string& path) {
+  if (H5Aexists(file, "next_snapshot") > 0) return;
+  if (H5Aexists(file, "layout") > 0)
+    throw ConfigError("--restart " + path + ": a snapshot, not a checkpoint; a run continues from a checkpoint (<case>" +
+                      checkpoint_infix + "<step>.h5, written every output/checkpoint_interval steps), or give the "
+                      "folder and it takes the newest");
+  throw ConfigError("--restart " + path + ": not an mpmflow checkpoint (no attribute next_snapshot)");
+}
+
 }  // namespace
 
 std::string write_checkpoint(const std::string& directory, const std::string& case_name, const Solver& solver,
@@ -161,6 +172,7 @@ std::string read_checkpoint_case(const std::string& path) {
   if (!std::filesystem::is_regular_file(path, ec)) throw ConfigError("--restart " + path + ": no such checkpoint file");
   try {
     Handle file(h5::open_file_here(path), H5Fclose, "open " + path);
+    require_checkpoint(file, path);
     if (H5Aexists(file, "effective_case") <= 0)
       throw ConfigError("--restart " + path + ": the checkpoint holds no case (written by an older mpmflow); "
                         "give the case file too: mpmflow run CASE.json --restart " + path);
@@ -186,6 +198,7 @@ RestartState read_checkpoint(const std::string& path, const CaseConfig& config, 
   restart.path = path;
   try {
     Handle file(h5::open_file(path, context), H5Fclose, "open " + path);
+    require_checkpoint(file, path);  // (every rank reads the same file: all refuse alike)
     const std::string case_name = h5::read_string_attribute(file, "case");
     const long cells_x = static_cast<long>(h5::read_attribute(file, "cells_x"));
     const long cells_y = static_cast<long>(h5::read_attribute(file, "cells_y"));

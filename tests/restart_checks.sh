@@ -7,7 +7,9 @@
 # - another snapshot count (the output schedule may change) writes the next snapshot at the first
 #   time of the new schedule after the checkpoint's, and the run ends there;
 # - another gamma (a physics key) is refused, naming the key (exit 2, nothing run);
-# - a checkpoint whose time is NaN is refused (exit 2).
+# - a checkpoint whose time is NaN is refused (exit 2);
+# - a snapshot (with the case file or without) or another HDF5 file is refused saying what it is
+#   (exit 2).
 # Usage: restart_checks.sh MPMFLOW_BINARY SOURCE_DIR WORK_DIR
 set -euo pipefail
 binary=$1 source_dir=$2 work_dir=$3
@@ -91,4 +93,17 @@ status=0
 tail -1 "$work_dir/nan.log"
 [ "$status" -eq 2 ] && grep -q "expected a time >= 0" "$work_dir/nan.log" \
   || { echo "FAIL: a checkpoint at t = NaN was not refused (exit $status)"; exit 1; }
+
+# A snapshot, with the case file and without, and the grid's mesh file: refused, saying what they are.
+snapshot=$(ls "$work_dir"/first/sod_00000[0-9].h5 | tail -1)
+for given in "--restart $snapshot" "$source_dir/cases/sod.json --restart $snapshot" \
+    "--restart $work_dir/first/sod_grid_mesh.h5"; do
+  status=0
+  # shellcheck disable=SC2086  # (the words of $given are the arguments)
+  "$binary" run $given --output "$work_dir/not_a_checkpoint" > "$work_dir/not_a_checkpoint.log" 2>&1 || status=$?
+  tail -1 "$work_dir/not_a_checkpoint.log"
+  case $given in *grid_mesh*) what="not an mpmflow checkpoint" ;; *) what="a snapshot, not a checkpoint" ;; esac
+  [ "$status" -eq 2 ] && grep -q "mpmflow: error: --restart .*: $what" "$work_dir/not_a_checkpoint.log" \
+    || { echo "FAIL: run $given was not refused as $what (exit $status)"; exit 1; }
+done
 echo "restart checks: OK"
