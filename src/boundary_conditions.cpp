@@ -11,7 +11,7 @@
 namespace mpmflow {
 namespace {
 
-// Whether gas outside the side presses on it at the free-stream pressure: outflow and far field.
+// Whether gas outside the side presses on it: outflow and far field.
 bool pressure_side(BoundaryType type) { return type == BoundaryType::outflow || type == BoundaryType::far_field; }
 
 // The node lines a side's condition visits (some may be empty on this slab): the side's line and
@@ -42,29 +42,41 @@ IndexRange2D condition_band(const GridSlab& slab, BoundaryType type, Side side) 
   return band;
 }
 
-// The free-stream pressure on the outflow and far-field sides, as the gas outside acts on the
-// nodes there: the force on node (i, j) (a struct rather than a private member: CUDA forbids
-// device lambdas in private members).
+// The gas outside on the outflow and far-field sides, as it acts on the nodes there: the force on
+// node (i, j) (a struct rather than a private member: CUDA forbids device lambdas in private
+// members).
 //
-// The gas outside is a continuum at the free-stream state. Where gas leaves (an outlet side:
-// PressureSideNodes::outlet, and the gas at the side's node moving out), the last particles reach
-// past the side until their centres cross it and fall short of it once they have gone; the gas
-// outside fills what they leave uncovered. Its stress contributes
-//   f_i = -\int_outside sigma grad N_i dA = p_inf \int_outside grad N_i dA = -p_inf g_i,
+// The gas outside is a continuum at the free-stream state. Where the free stream crosses the side
+// (PressureSideNodes::crossed) and gas crosses it there (at an outlet where the gas at the side's
+// node moves out; at every node of a far-field inlet, where the entering lattice moves in with the
+// gas), the particles reach past the side and fall short of it as they cross; the gas outside fills
+// what they leave uncovered. Its stress contributes
+//   f_i = -\int_outside sigma grad N_i dA = p_out \int_outside grad N_i dA = -p_out g_i,
 // g_i = \int_particles grad N_i dA = sum_p (M / rho) grad phi_i (GIMP's weights are averages over
 // the particle's domain; the shape functions vanish far off), to the nodes whose shape functions
 // reach the uncovered part: the side's line, the line inside it and the ghost line beyond. Their
-// force is then sum_p (P + Q - p_inf) (M / rho) grad phi_i: nothing for gas at the free-stream
-// pressure, wherever the last particles end. (With the traction below there, the ghost nodes
-// felt the particles reaching past the side unopposed, and the line inside those falling short:
-// a uniform stream at Mach 0.42 leaving through the side drew a rarefaction from it, pressure 0.95
-// of the free stream's, and lost 3.4 % of its mass by t = 2: README, Wind tunnel.)
-// Elsewhere (gas at rest or entering, where the entering lattice keeps the gas up to the side, and
-// on sides the free stream does not leave through) the gas outside acts on the side as a traction,
-// f_i -= p_inf n \int_side N_i ds on the side's nodes. (The gauge there too let the particles
-// crowd along far-field sides where gas enters: with the free-stream pressure taken out of their
-// forces, particles that overlap no longer push apart, and a tunnel whose gas entered through its
-// far-field bottom, free stream (0.5, 0.1) at a sound speed of 1, gained 10 % of its mass by t = 2.)
+// force is then sum_p (P + Q - p_out) (M / rho) grad phi_i: nothing for gas at the outside
+// pressure, wherever the last particles end. (With the traction below there, the ghost nodes felt
+// the particles reaching past the side unopposed, and the line inside those falling short: a
+// uniform stream at Mach 0.42 leaving through the side drew a rarefaction from it and lost 3.4 % of
+// its mass by t = 2; one entering through a far-field side slowed from 0.5 to 0.22 by t = 3:
+// README, Wind tunnel.)
+// Elsewhere (sides the free stream runs along, an outlet's nodes where the gas does not move out)
+// the gas outside acts on the side as a traction, f_i -= p_out n \int_side N_i ds on the side's
+// nodes. (The gauge on sides along the flow let the particles crowd there: with the outside
+// pressure taken out of their forces, particles that overlap no longer push apart, and the strip
+// fill, OpenBoundaries, keeps adding where the random arrangement leaves gaps: the rows along them
+// 1.52 and 1.55 against 1.4 in WindTunnel.FarFieldAlongTheFlowKeepsTheFreeStream.)
+// The outside pressure p_out is the free stream's, except on a far-field side the free stream
+// crosses: there that of the Riemann invariants of the flow normal to the side, the entering one
+// from the free stream, the leaving one from the gas at the side's node (far_field_boundary_pressure,
+// with the node's density m / V, pressure sum P V / V and normal velocity). The free-stream pressure
+// alone leaves a stream's normal velocity free: any uniform stream at p_inf is in equilibrium with
+// it, and the diagonal stream of WindTunnel.AStreamCrossingFarFieldSidesKeepsItsState, (0.5, 0.3),
+// drifted to (0.468, 0.313) by t = 3 with it (everything else as here). On sides the free stream
+// runs along, the invariants' pressure let a random arrangement's gas leak out: a Mach 0.42 stream
+// through the same box with an inflow side and far-field sides along the flow, random placement
+// (3 x 3), lost 2.3 % of its mass by t = 3 with it there, and gains 0.8 % with the free stream's.
 // Its mass contributes inertia: the part of a node's dual cell beyond a pressure side (half of a
 // side node's, all of a ghost node's) holds gas that moves with the node and takes its share of
 // the node's force. The node's acceleration is then f / (m + m_outside); the velocity the particles
@@ -77,14 +89,15 @@ IndexRange2D condition_band(const GridSlab& slab, BoundaryType type, Side side) 
 struct SidePressure {
   // Per axis: whether the domain's low and high sides are pressure sides.
   bool left = false, right = false, bottom = false, top = false;
+  Kokkos::Array<bool, num_sides> inflow = {};  // by Side
   PressureSideNodes nodes;
   Kokkos::View<const long long*, DeviceType> gradients;  // g_i in nodes' units, at nodes.entry(i, j)
-  real_t hx = 0, hy = 0, p_inf = 0, rho_inf = 0;
+  real_t hx = 0, hy = 0, p_inf = 0, rho_inf = 0, vx_inf = 0, vy_inf = 0, gamma = 0;
   index_t row_stride = 0;  // nodes_x
 
   SidePressure() = default;  // no pressure side (step 9's bands hold none)
   SidePressure(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type, const GasState& free_stream,
-               const PressureSideNodes& nodes_, const Kokkos::View<long long*, DeviceType>& gradients_)
+               real_t gamma_, const PressureSideNodes& nodes_, const Kokkos::View<long long*, DeviceType>& gradients_)
       : left(pressure_side(side_type[left_side])),
         right(pressure_side(side_type[right_side])),
         bottom(pressure_side(side_type[bottom_side])),
@@ -95,7 +108,41 @@ struct SidePressure {
         hy(slab.geometry.spacing_y),
         p_inf(free_stream.pressure),
         rho_inf(free_stream.density),
-        row_stride(slab.geometry.nodes_x) {}
+        vx_inf(free_stream.velocity_x),
+        vy_inf(free_stream.velocity_y),
+        gamma(gamma_),
+        row_stride(slab.geometry.nodes_x) {
+    for (int s = 0; s < num_sides; ++s) inflow[s] = side_type[s] == BoundaryType::inflow;
+  }
+
+  // The momentum of node `node` (global node gi, gj) into side s, as the conditions leave it: where
+  // the node lies on an inflow side's line too (a corner) the free stream's, m v_inf . n, which this
+  // launch writes there, so that no thread reads it half written.
+  KOKKOS_INLINE_FUNCTION real_t inward_momentum(const NodeFieldsView& state, int s, index_t node, index_t gi,
+                                                index_t gj) const {
+    real_t nx, ny;
+    inward_normal(s, nx, ny);
+    const bool on_inflow = (inflow[left_side] && gi <= 0) || (inflow[right_side] && gi >= nodes.cells_x) ||
+                           (inflow[bottom_side] && gj <= 0) || (inflow[top_side] && gj >= nodes.cells_y);
+    return on_inflow ? state(node, GridFields::mass) * (vx_inf * nx + vy_inf * ny)
+                     : state(node, GridFields::momentum_x) * nx + state(node, GridFields::momentum_y) * ny;
+  }
+
+  // The pressure of the gas outside side s at its node `side_node` (global node gi, gj): on a
+  // far-field side the free stream crosses (PressureSideNodes::invariants), from the Riemann
+  // invariants of the free stream and of the gas at the node (far_field_boundary_pressure; p_inf
+  // where the node holds no gas); the free stream's on the others.
+  KOKKOS_INLINE_FUNCTION real_t outside_pressure(const NodeFieldsView& state, int s, index_t side_node, index_t gi,
+                                                 index_t gj) const {
+    if (!nodes.invariants[s]) return p_inf;
+    const real_t m = state(side_node, GridFields::mass), volume = state(side_node, GridFields::volume);
+    const real_t pressure_volume = state(side_node, GridFields::pressure_volume);
+    if (!(m > 0 && volume > 0 && pressure_volume > 0)) return p_inf;
+    real_t nx, ny;
+    inward_normal(s, nx, ny);
+    return far_field_boundary_pressure(gamma, inward_momentum(state, s, side_node, gi, gj) / m, m / volume,
+                                       pressure_volume / volume, vx_inf * nx + vy_inf * ny, rho_inf, p_inf);
+  }
 
   // Along one axis, of the dual cell of global node g (of `cells` cells, spacing h): the length
   // within the domain, and the length that holds gas (within the domain, or beyond a pressure side).
@@ -118,28 +165,26 @@ struct SidePressure {
     const index_t side_node = node + (side_i - i) + (side_j - j) * row_stride;
     const bool side_node_held =
         side_i >= 0 && side_i < row_stride && side_j >= 0 && side_node < static_cast<index_t>(state.extent(0));
-    real_t nx, ny;
-    inward_normal(s, nx, ny);
-    const real_t outward = side_node_held ? -(state(side_node, GridFields::momentum_x) * nx +
-                                              state(side_node, GridFields::momentum_y) * ny)
-                                          : real_t(0);
+    const index_t side_gi = side_i + nodes.node_offset_x, side_gj = side_j + nodes.node_offset_y;
+    const real_t outward = side_node_held ? -inward_momentum(state, s, side_node, side_gi, side_gj) : real_t(0);
     const index_t gi = i + nodes.node_offset_x, gj = j + nodes.node_offset_y;
     const bool in_domain = gi >= 0 && gi <= nodes.cells_x && gj >= 0 && gj <= nodes.cells_y;
     real_t fx = state(node, GridFields::force_x), fy = state(node, GridFields::force_y);
     real_t inside_x, gas_x, inside_y, gas_y;
     dual_cell(gi, nodes.cells_x, hx, left, right, inside_x, gas_x);
     dual_cell(gj, nodes.cells_y, hy, bottom, top, inside_y, gas_y);
-    if (nodes.outlet[slot] && outward > 0) {
-      fx -= p_inf * nodes.unit * real_t(gradients(entry));
-      fy -= p_inf * nodes.unit * real_t(gradients(entry + 1));
+    if (nodes.crossed[slot] && (outward > 0 || nodes.inlet[slot])) {
+      const real_t p_outside = side_node_held ? outside_pressure(state, s, side_node, side_gi, side_gj) : p_inf;
+      fx -= p_outside * nodes.unit * real_t(gradients(entry));
+      fy -= p_outside * nodes.unit * real_t(gradients(entry + 1));
     } else {
       // The traction on the nodes of the domain's pressure sides (both at a corner of two), as
       // if the gauge had never reached here: the other lines keep their force.
       if (!in_domain) return;
-      if (left && gi == 0) fx += p_inf * inside_y;
-      if (right && gi == nodes.cells_x) fx -= p_inf * inside_y;
-      if (bottom && gj == 0) fy += p_inf * inside_x;
-      if (top && gj == nodes.cells_y) fy -= p_inf * inside_x;
+      if (left && gi == 0) fx += outside_pressure(state, left_side, node, gi, gj) * inside_y;
+      if (right && gi == nodes.cells_x) fx -= outside_pressure(state, right_side, node, gi, gj) * inside_y;
+      if (bottom && gj == 0) fy += outside_pressure(state, bottom_side, node, gi, gj) * inside_x;
+      if (top && gj == nodes.cells_y) fy -= outside_pressure(state, top_side, node, gi, gj) * inside_x;
     }
     const real_t outside_mass = rho_inf * (gas_x * gas_y - inside_x * inside_y);
     const real_t m = state(node, GridFields::mass);
@@ -316,11 +361,26 @@ void SideConditionBands::add(const IndexRange2D& nodes, SideCondition c, int axi
   ++count;
 }
 
+BoundaryConfig acting_boundaries(const CaseConfig& config) {
+  BoundaryConfig sides = config.boundaries;
+  const GasState& inf = sides.free_stream;
+  const real_t c_inf = sound_speed(config.physics.gamma, inf.pressure, inf.density);
+  BoundaryType* type[num_sides] = {&sides.left, &sides.right, &sides.bottom, &sides.top};
+  for (int s = 0; s < num_sides; ++s) {
+    real_t nx, ny;
+    inward_normal(s, nx, ny);
+    if (*type[s] == BoundaryType::far_field && inf.velocity_x * nx + inf.velocity_y * ny >= c_inf)
+      *type[s] = BoundaryType::inflow;
+  }
+  return sides;
+}
+
 GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const GridSlab& slab,
                                                const ObstacleGrid& obstacles)
     : slab_(slab),
-      side_type_(config.boundaries.side_types()),
+      side_type_(acting_boundaries(config).side_types()),
       free_stream_(config.boundaries.free_stream),
+      gamma_(config.physics.gamma),
       obstacles_(obstacles),
       bands_with_pressure_(side_condition_bands(slab, side_type_, /*with_pressure=*/true)),
       bands_without_pressure_(side_condition_bands(slab, side_type_, /*with_pressure=*/false)),
@@ -344,9 +404,11 @@ PressureSideNodes::PressureSideNodes(const GridSlab& slab, const std::array<Boun
     real_t nx, ny;
     inward_normal(s, nx, ny);
     const real_t inward_speed = free_stream.velocity_x * nx + free_stream.velocity_y * ny;
-    outlet[count] = side_type[s] == BoundaryType::outflow || inward_speed < 0;
-    any_outlet |= outlet[count];
-    if (outlet[count]) {
+    inlet[count] = side_type[s] == BoundaryType::far_field && inward_speed > 0;
+    invariants[s] = side_type[s] == BoundaryType::far_field && inward_speed != 0;
+    crossed[count] = side_type[s] == BoundaryType::outflow || inward_speed < 0 || inlet[count];
+    any_crossed |= crossed[count];
+    if (crossed[count]) {
       // How deep inside the side a point lies, n . (x - x_side), as DomainBox::depth_and_along_side.
       // A GIMP or B-spline particle reaches the nodes within 1.5 cells of it (half a cell of its
       // own, the shape function's cell beyond), a linear one those within a cell; the lines held
@@ -377,7 +439,7 @@ void GridBoundaryConditions::sum_pressure_side_gradients(const ParallelContext& 
 
 void GridBoundaryConditions::apply_to_momentum_and_force(const NodeFieldsView& state, ObstacleForces* forces) const {
   apply_side_conditions(slab_.geometry, bands_with_pressure_,
-                        SidePressure(slab_, side_type_, free_stream_, pressure_side_nodes_, pressure_side_gradients_),
+                        SidePressure(slab_, side_type_, free_stream_, gamma_, pressure_side_nodes_, pressure_side_gradients_),
                         free_stream_, state, GridFields::momentum_x, state, /*with_force=*/true);
   if (forces) add_obstacle_forces(obstacles_, state, *forces);
   remove_normal_component(obstacles_, state, GridFields::momentum_x, GridFields::force_x);
@@ -422,7 +484,7 @@ ParticleBoundaries::ParticleBoundaries(const CaseConfig& config, const GridSlab&
       near_y_max(obstacle_grid.near_y_max),
       has_obstacles(!obstacle_grid.obstacles.empty()),
       surface_offset(real_t(1e-6) * slab.cell_size()) {
-  const auto types = config.boundaries.side_types();
+  const auto types = acting_boundaries(config).side_types();
   std::copy(types.begin(), types.end(), side_type);
 }
 

@@ -88,6 +88,30 @@ KOKKOS_INLINE_FUNCTION bool surely_valid_gas_state(real_t gamma, real_t density,
          (vx * vx + vy * vy + perfect_gas_sound_speed_squared(gamma, specific_energy) < largest_real);
 }
 
+// The pressure at a subsonic far-field boundary from the Riemann invariants of the flow normal to
+// it (un the normal velocity, positive inwards): the one entering, un + 2 c / (gamma - 1), from the
+// free stream (un_inf, c_inf), the one leaving, un - 2 c / (gamma - 1), from the gas inside (un,
+// c); their mean the boundary's normal velocity, their difference its sound speed; its entropy
+// p / rho^gamma the free stream's where that velocity points in, the gas's where it points out.
+// A stream of the free stream's normal velocity and sound speed meets p_inf (the state outside is
+// the same); one slower inwards, or faster outwards, meets more, one faster inwards or slower
+// outwards less: the gas outside pushes the normal velocity towards the free stream's instead of
+// holding the pressure alone, which leaves the normal velocity free to drift. Supersonic: all from
+// outside going in (p_inf), all from inside going out (p).
+KOKKOS_INLINE_FUNCTION real_t far_field_boundary_pressure(real_t gamma, real_t un, real_t density, real_t pressure,
+                                                          real_t un_inf, real_t density_inf, real_t pressure_inf) {
+  const real_t c = sound_speed(gamma, pressure, density), c_inf = sound_speed(gamma, pressure_inf, density_inf);
+  if (un >= c) return pressure_inf;
+  if (un <= -c) return pressure;
+  const real_t entering = un_inf + 2 * c_inf / (gamma - 1), leaving = un - 2 * c / (gamma - 1);
+  const real_t un_boundary = (entering + leaving) / 2, c_boundary = (gamma - 1) * (entering - leaving) / 4;
+  if (!(c_boundary > 0)) return pressure_inf;
+  // rho = (c^2 / (gamma s))^(1 / (gamma - 1)) and p = rho c^2 / gamma, with s = p / rho^gamma:
+  // p = p_s (c / c_s)^(2 gamma / (gamma - 1)) for the state (p_s, c_s) whose entropy it takes.
+  const real_t p_s = un_boundary > 0 ? pressure_inf : pressure, c_s = un_boundary > 0 ? c_inf : c;
+  return p_s * power(c_boundary / c_s, 2 * gamma / (gamma - 1));
+}
+
 // ---- Sub-cell consistency (numerics/pressure_relaxation and numerics/volume_correction) ---------
 
 // The fraction of a volume or pressure mismatch below the grid's resolution that the gas evens

@@ -37,7 +37,7 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     auto t = timers.scope(Phase::boundary_conditions);
     if (energy_budget) keep_momentum_and_force_before_conditions(grid);
     const GridBoundaryConditions& conditions = slab.grid_boundaries();
-    if (conditions.pressure_side_nodes().any_outlet) {  // the particles' cover of the outlets' nodes
+    if (conditions.pressure_side_nodes().any_crossed) {  // the particles' cover of the crossed sides' nodes
       conditions.clear_pressure_side_gradients();
       transfers.add_pressure_side_volume_gradients(particles, conditions.pressure_side_nodes(),
                                                    conditions.pressure_side_gradients());

@@ -15,10 +15,13 @@
 // rows, each particle the case's free-stream particle mass. The lattice moves towards the side at
 // the inward normal speed: the free stream's on an inflow side; on a far-field side, in each cell
 // along it, that of the gas at the side (the grid velocity V-bar of the step on its two side
-// nodes) where it points inwards, and nothing where it points outwards; where it does not point
+// nodes) where it points inwards, and nothing where it points outwards; on a far-field side the
+// free stream does not enter (one it runs along, or an outlet), where the gas does not point
 // outwards, the lattice moves in further if that does not fill the strip one cell deep along the
-// side: by the strip's area not covered by its particles' volumes m / rho, per unit width (the
-// free stream outside fills the gaps the particles leave at the side; the volumes are summed in
+// side: by the strip's area covered neither by its particles' volumes m / rho (each by the share
+// of its extent across the side, a row spacing, that lies within the strip) nor by the lattice's
+// next rows (each column's reaches half a row spacing past its centre), per unit width (the free
+// stream outside fills the gaps the particles leave at the side; the volumes are summed in
 // integer units, so that the sum, and what enters, does not depend on the particle order, the
 // threads or the ranks). entry_distance(cell) accumulates how far the lattice has moved. Row r of column i lies (r + phase_i) row spacings
 // outside, phase_i = (i + 1/2) / columns, and enters once entry_distance passes it: placed that

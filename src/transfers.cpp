@@ -403,11 +403,11 @@ GimpShape make_shape<GimpShape>(const CaseConfig& config, const GridGeometry& ge
 template <class Shape>
 void sum_pressure_side_volume_gradients(const Shape& shape, const ParticleState& pt, const PressureSideNodes& nodes,
                                         const Kokkos::View<long long*, DeviceType>& gradients) {
-  // The test reads one coordinate where the outlets all lie across one axis (a tunnel's outlet on
-  // its right): the pass reads the positions, and half of them where it can.
+  // The test reads one coordinate where the crossed sides all lie across one axis (a tunnel's
+  // outlet on its right): the pass reads the positions, and half of them where it can.
   bool across_x = false, across_y = false;
   for (int k = 0; k < num_sides; ++k) across_x |= nodes.depth_x[k] != 0, across_y |= nodes.depth_y[k] != 0;
-  if (!(across_x || across_y) || pt.count == 0) return;  // no outlet
+  if (!(across_x || across_y) || pt.count == 0) return;  // no crossed side
   const RealView x = pt.position_x, y = pt.position_y, mass = pt.mass, density = pt.density;
   const IndexView cell = pt.cell;
   const GridGeometry geometry = shape.grid.geometry;

@@ -19,6 +19,23 @@
 namespace mpmflow {
 namespace {
 
+// The far-field pressure of the Riemann invariants (gamma 1.4; free stream rho 1.4, p 1: c = 1).
+// The free stream's own state meets p_inf, in and out; gas entering slower (or leaving faster)
+// than the free stream meets more, which pushes it towards the free stream's normal velocity; to
+// first order p_out - p_inf = rho c (un_inf - un) / 2 for gas of the free stream's sound speed.
+// Supersonic: p_inf entering, the gas's own pressure leaving.
+TEST(FarFieldBoundary, TheInvariantsPressureHoldsTheFreeStreamAndPushesTowardsIt) {
+  const double gamma = 1.4, rho = 1.4, p = 1;
+  for (double un : {0.5, -0.5, 0.0}) EXPECT_NEAR(far_field_boundary_pressure(gamma, un, rho, p, un, rho, p), p, 1e-14);
+  const double slower_in = far_field_boundary_pressure(gamma, 0.49, rho, p, 0.5, rho, p);
+  EXPECT_GT(slower_in, p);
+  EXPECT_NEAR(slower_in - p, rho * 1.0 * 0.01 / 2, 2e-4);
+  EXPECT_LT(far_field_boundary_pressure(gamma, 0.51, rho, p, 0.5, rho, p), p);
+  EXPECT_GT(far_field_boundary_pressure(gamma, -0.51, rho, p, -0.5, rho, p), p);  // leaving faster
+  EXPECT_EQ(far_field_boundary_pressure(gamma, 2.0, rho, 0.7, 3.0, rho, p), p);   // supersonic in
+  EXPECT_EQ(far_field_boundary_pressure(gamma, -2.0, rho, 0.7, -3.0, rho, p), 0.7);  // supersonic out
+}
+
 TEST(SubCellConsistency, TheAcousticFractionIsTheShareOfACellSoundCrossesAtMostAll) {
   const double h = 0.1;
   EXPECT_DOUBLE_EQ(acoustic_fraction(0.01 / h, 2.0), 0.2);
