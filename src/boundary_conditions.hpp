@@ -71,7 +71,7 @@ struct DomainBox {
 // - inflow: the node velocity is the free stream, momentum = node mass x v_inf, no force;
 // - outflow and far field: nothing imposed on the velocity; the gas outside, which the particles
 //   do not represent, acts at the free-stream state (its pressure on a far-field side the free
-//   stream crosses from the Riemann invariants of the free stream and the gas at the side:
+//   stream enters from the Riemann invariants of the free stream and the gas at the side:
 //   far_field_boundary_pressure): its pressure p_out where the free stream crosses the side (gas
 //   leaving through an outlet, entering through a far-field inlet) on what the particles leave
 //   uncovered, f_i -= p_out g_i with g_i = sum_p (M / rho) grad phi_i on the side's line, the line
@@ -120,11 +120,10 @@ struct PressureSideNodes {
   // Whether the free stream crosses the side: leaves through it (an outflow side, or a far-field
   // side it crosses outwards) or enters through it (a far-field side: an inlet).
   Kokkos::Array<bool, num_sides> crossed = {};
-  Kokkos::Array<bool, num_sides> inlet = {};
   bool any_crossed = false;
-  // By Side: the far-field sides the free stream crosses, in or out, whose gas outside presses at
-  // the pressure of the Riemann invariants (SidePressure); the free stream's on the others.
-  Kokkos::Array<bool, num_sides> invariants = {};
+  // By Side: the far-field sides the free stream enters, whose gas outside acts at every node of
+  // the three lines, at the pressure of the Riemann invariants (SidePressure).
+  Kokkos::Array<bool, num_sides> inlet = {};
   Kokkos::Array<index_t, num_sides> first_entry = {};
   index_t entries = 0;
   index_t node_offset_x = 0, node_offset_y = 0, cells_x = 0, cells_y = 0;
