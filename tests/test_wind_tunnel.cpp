@@ -1075,6 +1075,27 @@ HostParticles to_host(const Solver& solver) {
   return h;
 }
 
+// Runs `solver` from t = 0 to t_end; the mass it started with.
+double run_until(Solver& solver, double t_end) {
+  const double initial_mass = particle_totals(solver.particles()).mass;
+  double t = 0;
+  while (t < t_end) t = solver.step_towards(t, t_end);
+  return initial_mass;
+}
+
+// A case run on one slab from its initial particles to t_end: its mass then and at the start, and
+// its particles.
+struct RunEnd {
+  double initial_mass, mass;
+  HostParticles particles;
+};
+RunEnd run_on_one_slab(const CaseConfig& config, double t_end) {
+  const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
+  Solver solver(config, slab, create_initial_particles(config, slab));
+  const double initial_mass = run_until(solver, t_end);
+  return {initial_mass, particle_totals(solver.particles()).mass, to_host(solver)};
+}
+
 // An empty tunnel at Mach 3 stays the free stream in every band along the flow: the gas entering
 // at the inflow, leaving at the outflow and the outflow's pressure neither push, drain nor starve
 // it. Over t = 2 (the gas crosses the tunnel 1.5 times) the particle count stays within 1 % of
@@ -1146,10 +1167,8 @@ TEST(WindTunnel, SubsonicFarFieldLetsGasInAndOut) {
       "far_field.json");
   const GridSlab slab = make_grid_slab(config.domain, 0, 40);
   Solver solver(config, slab, create_initial_particles(config, slab));
-  const double initial_mass = particle_totals(solver.particles()).mass;
   const index_t n = solver.particles().count;
-  double t = 0;
-  while (t < 2) t = solver.step_towards(t, 2.0);
+  const double initial_mass = run_until(solver, 2);
   const double mass = particle_totals(solver.particles()).mass;
   const BoundaryFluxes& fluxes = solver.open_sides().fluxes();
   const HostParticles h = to_host(solver);
@@ -1192,13 +1211,7 @@ TEST(WindTunnel, ASubsonicStreamLeavesThroughItsOutletUndisturbed) {
             "free_stream": {"density": 1, "pressure": 1, "velocity": [0.5, 0]},
             "particles": {"placement": "regular", "per_cell": [2, 2]}})",
         "channel.json");
-    const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
-    Solver solver(config, slab, create_initial_particles(config, slab));
-    const double initial_mass = particle_totals(solver.particles()).mass;
-    double t = 0;
-    while (t < 2) t = solver.step_towards(t, 2);
-    const double mass = particle_totals(solver.particles()).mass;
-    const HostParticles h = to_host(solver);
+    const auto [initial_mass, mass, h] = run_on_one_slab(config, 2);
     double sum_p = 0, sum_p_outlet = 0, n_outlet = 0;
     for (size_t k = 0; k < h.p.size(); ++k) {
       sum_p += h.p[k];
@@ -1243,13 +1256,7 @@ TEST(WindTunnel, AStreamCrossingFarFieldSidesKeepsItsState) {
             std::to_string(c.vx) + ", " + std::to_string(c.vy) +
             R"(]}, "particles": {"placement": "regular", "per_cell": [2, 2]}})",
         "box.json");
-    const GridSlab slab = make_grid_slab(config.domain, 0, config.domain.cells_x);
-    Solver solver(config, slab, create_initial_particles(config, slab));
-    const double initial_mass = particle_totals(solver.particles()).mass;
-    double t = 0;
-    while (t < 3) t = solver.step_towards(t, 3);
-    const double mass = particle_totals(solver.particles()).mass;
-    const HostParticles h = to_host(solver);
+    const auto [initial_mass, mass, h] = run_on_one_slab(config, 3);
     double vx = 0, vy = 0, p = 0, n = 0;
     for (size_t k = 0; k < h.p.size(); ++k)
       if (h.x[k] > 0.2 && h.x[k] < 0.8 && h.y[k] > 0.2 && h.y[k] < 0.8) vx += h.vx[k], vy += h.vy[k], p += h.p[k], n += 1;
