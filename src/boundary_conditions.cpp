@@ -94,9 +94,10 @@ struct SidePressure {
   // Per axis: whether the domain's low and high sides are pressure sides.
   bool left = false, right = false, bottom = false, top = false;
   Kokkos::Array<bool, num_sides> inflow = {};  // by Side
+  Kokkos::Array<real_t, num_sides> inward_speed_inf = {};  // by Side: the free stream's into it
   PressureSideNodes nodes;
   Kokkos::View<const long long*, DeviceType> gradients;  // g_i in nodes' units, at nodes.entry(i, j)
-  real_t hx = 0, hy = 0, p_inf = 0, rho_inf = 0, vx_inf = 0, vy_inf = 0, gamma = 0;
+  real_t hx = 0, hy = 0, p_inf = 0, rho_inf = 0, gamma = 0;
   index_t row_stride = 0;  // nodes_x
 
   SidePressure() = default;  // no pressure side (step 9's bands hold none)
@@ -112,11 +113,12 @@ struct SidePressure {
         hy(slab.geometry.spacing_y),
         p_inf(free_stream.pressure),
         rho_inf(free_stream.density),
-        vx_inf(free_stream.velocity_x),
-        vy_inf(free_stream.velocity_y),
         gamma(gamma_),
         row_stride(slab.geometry.nodes_x) {
-    for (int s = 0; s < num_sides; ++s) inflow[s] = side_type[s] == BoundaryType::inflow;
+    for (int s = 0; s < num_sides; ++s) {
+      inflow[s] = side_type[s] == BoundaryType::inflow;
+      inward_speed_inf[s] = inward_speed(s, free_stream.velocity_x, free_stream.velocity_y);
+    }
   }
 
   // The momentum of node `node` (global node gi, gj) into side s, as the conditions leave it: where
@@ -124,12 +126,10 @@ struct SidePressure {
   // launch writes there, so that no thread reads it half written.
   KOKKOS_INLINE_FUNCTION real_t inward_momentum(const NodeFieldsView& state, int s, index_t node, index_t gi,
                                                 index_t gj) const {
-    real_t nx, ny;
-    inward_normal(s, nx, ny);
     const bool on_inflow = (inflow[left_side] && gi <= 0) || (inflow[right_side] && gi >= nodes.cells_x) ||
                            (inflow[bottom_side] && gj <= 0) || (inflow[top_side] && gj >= nodes.cells_y);
-    return on_inflow ? state(node, GridFields::mass) * (vx_inf * nx + vy_inf * ny)
-                     : state(node, GridFields::momentum_x) * nx + state(node, GridFields::momentum_y) * ny;
+    return on_inflow ? state(node, GridFields::mass) * inward_speed_inf[s]
+                     : inward_speed(s, state(node, GridFields::momentum_x), state(node, GridFields::momentum_y));
   }
 
   // The pressure of the gas outside side s at its node `side_node` (global node gi, gj): on a
@@ -142,10 +142,8 @@ struct SidePressure {
     const real_t m = state(side_node, GridFields::mass), volume = state(side_node, GridFields::volume);
     const real_t pressure_volume = state(side_node, GridFields::pressure_volume);
     if (!(m > 0 && volume > 0 && pressure_volume > 0)) return p_inf;
-    real_t nx, ny;
-    inward_normal(s, nx, ny);
     return far_field_boundary_pressure(gamma, inward_momentum(state, s, side_node, gi, gj) / m, m / volume,
-                                       pressure_volume / volume, vx_inf * nx + vy_inf * ny, rho_inf, p_inf);
+                                       pressure_volume / volume, inward_speed_inf[s], rho_inf, p_inf);
   }
 
   // Along one axis, of the dual cell of global node g (of `cells` cells, spacing h): the length
@@ -370,12 +368,9 @@ BoundaryConfig acting_boundaries(const CaseConfig& config) {
   const GasState& inf = sides.free_stream;
   const real_t c_inf = sound_speed(config.physics.gamma, inf.pressure, inf.density);
   BoundaryType* type[num_sides] = {&sides.left, &sides.right, &sides.bottom, &sides.top};
-  for (int s = 0; s < num_sides; ++s) {
-    real_t nx, ny;
-    inward_normal(s, nx, ny);
-    if (*type[s] == BoundaryType::far_field && inf.velocity_x * nx + inf.velocity_y * ny >= c_inf)
+  for (int s = 0; s < num_sides; ++s)
+    if (*type[s] == BoundaryType::far_field && inward_speed(s, inf.velocity_x, inf.velocity_y) >= c_inf)
       *type[s] = BoundaryType::inflow;
-  }
   return sides;
 }
 
@@ -407,9 +402,9 @@ PressureSideNodes::PressureSideNodes(const GridSlab& slab, const std::array<Boun
     side[count] = s;
     real_t nx, ny;
     inward_normal(s, nx, ny);
-    const real_t inward_speed = free_stream.velocity_x * nx + free_stream.velocity_y * ny;
-    inlet[s] = side_type[s] == BoundaryType::far_field && inward_speed > 0;
-    crossed[count] = side_type[s] == BoundaryType::outflow || inward_speed < 0 || inlet[s];
+    const real_t free_stream_inward = inward_speed(s, free_stream.velocity_x, free_stream.velocity_y);
+    inlet[s] = far_field_inlet(side_type[s], free_stream_inward);
+    crossed[count] = side_type[s] == BoundaryType::outflow || free_stream_inward < 0 || inlet[s];
     any_crossed |= crossed[count];
     if (crossed[count]) {
       // How deep inside the side a point lies, n . (x - x_side), as DomainBox::depth_and_along_side.

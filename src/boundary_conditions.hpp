@@ -17,6 +17,19 @@ KOKKOS_INLINE_FUNCTION void inward_normal(int side, real_t& nx, real_t& ny) {
   nx = side == left_side ? 1 : (side == right_side ? -1 : 0);
   ny = side == bottom_side ? 1 : (side == top_side ? -1 : 0);
 }
+// The component of the velocity (vx, vy) into a side: along its inward normal.
+KOKKOS_INLINE_FUNCTION real_t inward_speed(int side, real_t vx, real_t vy) {
+  real_t nx, ny;
+  inward_normal(side, nx, ny);
+  return vx * nx + vy * ny;
+}
+// Whether a side of (acting) type `type`, which the free stream enters at `free_stream_inward`, is a
+// far-field inlet: there the gas outside acts on every node of its three lines, at the pressure
+// of the Riemann invariants (SidePressure), and the open sides fill no strip along it
+// (OpenBoundaries).
+KOKKOS_INLINE_FUNCTION bool far_field_inlet(BoundaryType type, real_t free_stream_inward) {
+  return type == BoundaryType::far_field && free_stream_inward > 0;
+}
 
 // The case's sides as they act: a far-field side that the free stream enters faster than sound is
 // an inflow (everything there comes from outside, the velocity too; as a far field, which imposes

@@ -141,15 +141,13 @@ void far_field_inward_speed(const EntrySide& side, const SlabState& slab_state,
   if (cell_across < owned.begin(across_axis) || cell_across >= owned.end(across_axis)) return;
   const index_t first = owned.begin(along_x ? 0 : 1), last = owned.end(along_x ? 0 : 1);
   const index_t offset_x = slab.node_offset_x, offset_y = slab.node_offset_y;
-  real_t nx, ny;
-  inward_normal(s, nx, ny);
   Kokkos::parallel_for(
       "far_field_inward_speed", Kokkos::RangePolicy<ExecutionSpace>(first, last), KOKKOS_LAMBDA(const index_t c) {
         double sum = 0;
         for (index_t end = 0; end < 2; ++end) {
           const index_t gi = along_x ? c + end : node_across, gj = along_x ? node_across : c + end;
           const index_t node = geo.node_index(gi - offset_x, gj - offset_y);
-          sum += velocity(node, GridFields::velocity_x) * nx + velocity(node, GridFields::velocity_y) * ny;
+          sum += inward_speed(s, velocity(node, GridFields::velocity_x), velocity(node, GridFields::velocity_y));
         }
         speed(c) = sum / 2;
       });
@@ -293,12 +291,10 @@ OpenBoundaries::OpenBoundaries(const CaseConfig& config, const GridSlab& slab)
     if (types[s] != BoundaryType::inflow) continue;
     const bool x_normal = s == left_side || s == right_side;
     length += x_normal ? (slab.domain_y_max - slab.domain_y_min) : (slab.domain_x_max - slab.domain_x_min);
-    real_t nx, ny;
-    inward_normal(s, nx, ny);
     const int k = recycle_.num_inflow_sides++;
     recycle_.inflow_side[k] = s;
     recycle_.inflow_length_end[k] = length;
-    recycle_.inward_speed[k] = free_stream_.velocity_x * nx + free_stream_.velocity_y * ny;
+    recycle_.inward_speed[k] = inward_speed(s, free_stream_.velocity_x, free_stream_.velocity_y);
     recycle_.cell_depth[k] = x_normal ? slab.geometry.spacing_x : slab.geometry.spacing_y;
   }
   recycle_.free_stream = free_stream_;
@@ -322,9 +318,8 @@ OpenBoundaries::OpenBoundaries(const CaseConfig& config, const GridSlab& slab)
     side.columns = side.cells * side.per_cell_along;
     side.row_spacing = along_x ? hy / config.particles.per_cell_y : hx / config.particles.per_cell_x;
     side.column_width = along_x ? hx / config.particles.per_cell_x : hy / config.particles.per_cell_y;
-    real_t nx, ny;
-    inward_normal(s, nx, ny);
-    side.free_stream_inward = double(free_stream_.velocity_x) * nx + double(free_stream_.velocity_y) * ny;
+    side.free_stream_inward = inward_speed(s, free_stream_.velocity_x, free_stream_.velocity_y);
+    side.fills_strip = side.far_field && !far_field_inlet(types[s], real_t(side.free_stream_inward));
     sides_.push_back(side);
     first_cell += side.cells;
   }
@@ -391,7 +386,7 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
   // this loop are added before a later side reads its strips, as a pass of each side's own did.
   FarFieldStrips strips;
   for (const EntrySide& side : sides_) {
-    if (!side.far_field || side.free_stream_inward > 0) continue;  // (no fill at an inlet: below)
+    if (!side.fills_strip) continue;
     strips.at[side.side] = true;
     strips.side[strips.count] = side.side;
     strips.first_cell[strips.count] = side.first_cell;
@@ -428,7 +423,7 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
     // each gap that the stream's motion along the side opened against the lattice's fixed columns,
     // and took nothing back: the diagonal stream of WindTunnel.AStreamCrossingFarFieldSidesKeepsItsState
     // gained 10.6 % of its mass by t = 3.
-    if (side.far_field && side.free_stream_inward <= 0) {
+    if (side.fills_strip) {
       add_far_field_strip_volumes(strips, pt, measured, pt.count, slab, strip_volume_);
       measured = pt.count;
       const auto volume = Kokkos::subview(strip_volume_host_, cells);

@@ -62,6 +62,7 @@ struct EntrySide {
   double row_spacing = 0;       // cell depth / particles per cell across the side
   double column_width = 0;      // cell width along the side / particles per cell along it
   double free_stream_inward = 0;  // v_inf . (inward normal)
+  bool fills_strip = false;  // a far-field side but an inlet (far_field_inlet): the strip fill acts
 };
 
 // Gives particle p of `pt` the free-stream state `s` (its specific energy and particle mass too)
