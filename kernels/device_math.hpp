@@ -36,5 +36,7 @@ KOKKOS_INLINE_FUNCTION real_t power(real_t x, real_t y) {
 
 // The largest finite real_t (Kokkos' numeric traits: the same spelling in Kokkos 3.4 and 4.x).
 constexpr real_t largest_real = Kokkos::Experimental::finite_max<real_t>::value;
+// The spacing of real_t's values at 1 (the same traits).
+constexpr real_t real_epsilon = Kokkos::Experimental::epsilon<real_t>::value;
 
 }  // namespace mpmflow

@@ -12,11 +12,6 @@
 
 namespace mpmflow {
 
-// The inward unit normal of a side (grid.hpp's Side).
-KOKKOS_INLINE_FUNCTION void inward_normal(int side, real_t& nx, real_t& ny) {
-  nx = side == left_side ? 1 : (side == right_side ? -1 : 0);
-  ny = side == bottom_side ? 1 : (side == top_side ? -1 : 0);
-}
 // The component of the velocity (vx, vy) into a side: along its inward normal.
 KOKKOS_INLINE_FUNCTION real_t inward_speed(int side, real_t vx, real_t vy) {
   real_t nx, ny;

@@ -309,19 +309,31 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
         << "]; its bounding box is [" << x_lo << ", " << x_hi << "] x [" << y_lo << ", " << y_hi << "]";
     throw ConfigError(msg.str());
   }
-  // The coefficients' length, of the obstacle as the case gives it (before the move below).
+  // The coefficients' length, of the obstacle as the case gives it.
   obstacle.reference_length = obstacle_reference_length(obstacle, flow_direction.first, flow_direction.second);
-  // A rectangle side on a domain side is not a surface the gas meets: moved out of the domain, it
-  // can never be the nearest surface that a particle entering near it is pushed back to.
-  if (obstacle.shape == ObstacleShape::rectangle) {
-    for (real_t& x : obstacle.vertices_x) {
-      if (x <= domain.x_min + tolerance) x = domain.x_min - width;
-      if (x >= domain.x_max - tolerance) x = domain.x_max + width;
+  // An edge on a side of the domain is not a surface the gas meets (the signed distance puts the
+  // obstacle beyond it: make_host_obstacle_set).
+  if (obstacle.shape != ObstacleShape::circle) {
+    const size_t n = obstacle.vertices_x.size();
+    // The side both ends of an edge lie on, or -1.
+    auto side_of_edge = [&](size_t a, size_t b) -> int {
+      const real_t xa = obstacle.vertices_x[a], xb = obstacle.vertices_x[b];
+      const real_t ya = obstacle.vertices_y[a], yb = obstacle.vertices_y[b];
+      if (xa <= domain.x_min + tolerance && xb <= domain.x_min + tolerance) return left_side;
+      if (xa >= domain.x_max - tolerance && xb >= domain.x_max - tolerance) return right_side;
+      if (ya <= domain.y_min + tolerance && yb <= domain.y_min + tolerance) return bottom_side;
+      if (ya >= domain.y_max - tolerance && yb >= domain.y_max - tolerance) return top_side;
+      return -1;
+    };
+    obstacle.edge_side.resize(n);
+    size_t surfaces = 0;
+    for (size_t v = 0; v < n; ++v) {
+      obstacle.edge_side[v] = side_of_edge(v, (v + 1) % n);
+      if (obstacle.edge_side[v] < 0) ++surfaces;
     }
-    for (real_t& y : obstacle.vertices_y) {
-      if (y <= domain.y_min + tolerance) y = domain.y_min - height;
-      if (y >= domain.y_max - tolerance) y = domain.y_max + height;
-    }
+    if (surfaces == 0)
+      throw ConfigError(r.source() + ": " + obstacle.description +
+                        ": expected an obstacle with a surface inside the domain; every edge lies on a side of the domain");
   }
   return obstacle;
 }

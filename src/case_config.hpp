@@ -106,6 +106,10 @@ struct ObstacleConfig {
   std::string description;  // "/obstacles/0 (circle)", for messages
   real_t centre_x = 0, centre_y = 0, radius = 0;    // circle
   std::vector<real_t> vertices_x, vertices_y;      // polygon and rectangle, without a repeated closing point
+  // Of each edge v (from vertex v to vertex v + 1, the last back to the first): the side of the
+  // domain it lies on (grid.hpp's Side: the step's floor and end), where it is not a surface the
+  // gas meets; -1 for a surface. Empty: every edge is a surface.
+  std::vector<int> edge_side;
   // The length drag and lift coefficients are taken on; 0: the obstacle's default (see
   // obstacle_reference_length).
   real_t reference_length = 0;

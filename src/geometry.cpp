@@ -127,16 +127,68 @@ std::string describe_self_intersection(const Polygon& polygon) {
   return "";
 }
 
+namespace {
+
+// The polygon the signed distance uses for obstacle `o`: counter-clockwise, so that an edge's
+// right-hand normal points out of the obstacle, and with its edges on sides of the domain moved
+// out beyond them. Such an edge is no surface the gas meets: as the nearest surface, it would put
+// a particle that entered the obstacle near it back across the side, where the clamp to the domain
+// leaves it inside the obstacle still (a half cylinder on a symmetry wall took in the particles of
+// its stagnation streamline, which then slid along the wall through it); nor is a vertex between
+// two of them (the step's corner on the outflow side). A run of such edges from a to b becomes
+// a, a', the run's inner vertices moved out beyond both their sides, b', b, with a' and b' twice
+// the polygon's extent out beyond the side: a-a' and b'-b stand square to the side, so that within
+// the domain no point of theirs is nearer than a or b, which are points of the surface; the rest
+// is farther from any point of the domain than its nearest surface; and a point on the side
+// under the obstacle, where the clamp puts particles, lies strictly inside.
+Polygon signed_distance_polygon(const ObstacleConfig& o) {
+  const size_t n = o.vertices_x.size();
+  auto side_of_edge = [&](size_t v) { return o.edge_side.empty() ? -1 : o.edge_side[v % n]; };
+  double x_lo = o.vertices_x[0], x_hi = x_lo, y_lo = o.vertices_y[0], y_hi = y_lo;
+  for (size_t v = 0; v < n; ++v) {
+    x_lo = std::min(x_lo, double(o.vertices_x[v])), x_hi = std::max(x_hi, double(o.vertices_x[v]));
+    y_lo = std::min(y_lo, double(o.vertices_y[v])), y_hi = std::max(y_hi, double(o.vertices_y[v]));
+  }
+  const double beyond = 2 * std::hypot(x_hi - x_lo, y_hi - y_lo);
+  // Point p moved out beyond `side`.
+  auto out_beyond = [&](Point p, int side) {
+    real_t nx, ny;
+    inward_normal(side, nx, ny);
+    return Point{p.x - beyond * nx, p.y - beyond * ny};
+  };
+  // From a vertex that ends a surface edge (case_config refuses a polygon without one), so that
+  // no run of edges on sides wraps around the end of the list.
+  size_t start = 0;
+  while (side_of_edge(start + n - 1) >= 0) ++start;
+  Polygon polygon;
+  for (size_t k = 0; k < n; ++k) {
+    const size_t v = (start + k) % n;
+    const Point p{o.vertices_x[v], o.vertices_y[v]};
+    const int in = side_of_edge(v + n - 1), out = side_of_edge(v);  // the edges into and out of p
+    if (in < 0) polygon.push_back(p);  // a point of the surface
+    if (in < 0 && out >= 0) polygon.push_back(out_beyond(p, out));  // a run starts: a'
+    if (in >= 0 && out >= 0) polygon.push_back(out == in ? out_beyond(p, in) : out_beyond(out_beyond(p, in), out));
+    if (in >= 0 && out < 0) polygon.push_back(out_beyond(p, in)), polygon.push_back(p);  // a run ends: b', b
+  }
+  if (signed_area(polygon) < 0) std::reverse(polygon.begin(), polygon.end());
+  return polygon;
+}
+
+}  // namespace
+
 HostObstacleSet make_host_obstacle_set(const std::vector<ObstacleConfig>& obstacles) {
   HostObstacleSet set;
-  index_t num_circles = 0, num_polygons = 0, num_edges = 0;
+  index_t num_circles = 0;
+  std::vector<Polygon> polygons;
+  size_t num_edges = 0;
   for (const ObstacleConfig& o : obstacles) {
     if (o.shape == ObstacleShape::circle) ++num_circles;
     else {
-      ++num_polygons;
-      num_edges += static_cast<index_t>(o.vertices_x.size());
+      polygons.push_back(signed_distance_polygon(o));
+      num_edges += polygons.back().size();
     }
   }
+  const index_t num_polygons = static_cast<index_t>(polygons.size());
   set.circles = HostObstacleSet::RealColumns("obstacle_circles", num_circles, 3);
   set.edges = HostObstacleSet::RealColumns("obstacle_edges", num_edges, 4);
   set.polygon_edges = HostObstacleSet::Offsets("obstacle_polygon_edges", num_polygons + 1);
@@ -152,10 +204,7 @@ HostObstacleSet make_host_obstacle_set(const std::vector<ObstacleConfig>& obstac
       ++set.num_circles;
       continue;
     }
-    Polygon polygon;
-    for (size_t v = 0; v < o.vertices_x.size(); ++v) polygon.push_back({o.vertices_x[v], o.vertices_y[v]});
-    // Counter-clockwise, so that an edge's right-hand normal points out of the obstacle.
-    if (signed_area(polygon) < 0) std::reverse(polygon.begin(), polygon.end());
+    const Polygon& polygon = polygons[static_cast<size_t>(set.num_polygons)];
     set.polygon_edges(set.num_polygons) = edge;
     set.case_index(num_circles + set.num_polygons) = static_cast<index_t>(index);
     for (size_t v = 0; v < polygon.size(); ++v, ++edge) {

@@ -46,6 +46,15 @@ struct SignedDistance {
   index_t obstacle = 0;       // the nearest obstacle, in case order
 };
 
+// The round-off of a distance computed from coordinates and lengths of about `scale`: a few
+// thousand units of their last place. A point within it of a surface is on the surface: a node on
+// a face along a grid line is then inside (the grid conditions remove its normal momentum), every
+// node of the face alike, rather than inside or out as the last bits fall.
+KOKKOS_INLINE_FUNCTION real_t distance_round_off(real_t scale) { return 1024 * real_epsilon * scale; }
+KOKKOS_INLINE_FUNCTION real_t snapped_to_surface(real_t distance, real_t scale) {
+  return absolute_value(distance) <= distance_round_off(scale) ? real_t(0) : distance;
+}
+
 // The union of the case's obstacles. Distance and normal are those of the nearest obstacle.
 template <class MemSpace>
 struct ObstacleSet {
@@ -65,7 +74,7 @@ struct ObstacleSet {
     for (index_t c = 0; c < num_circles; ++c) {
       const real_t dx = x - circles(c, 0), dy = y - circles(c, 1);
       const real_t r = square_root(dx * dx + dy * dy);
-      const real_t d = r - circles(c, 2);
+      const real_t d = snapped_to_surface(r - circles(c, 2), absolute_value(x) + absolute_value(y) + circles(c, 2));
       if (d < nearest.distance)
         nearest = r > 0 ? SignedDistance{d, dx / r, dy / r, case_index(c)} : SignedDistance{d, 1, 0, case_index(c)};
     }
@@ -77,16 +86,23 @@ struct ObstacleSet {
     return nearest;
   }
 
+  // The distance to the nearest edge, negative inside (even-odd rule), 0 within round-off. The
+  // normal: where the nearest point lies within the edge, the edge's own outward normal (the exact
+  // gradient there, inside or out; from the difference vector it would be round-off for a point on
+  // the edge, such as a node on a face along a grid line); at a vertex, the direction from it,
+  // and on the vertex the mean of its two edges' normals (a smooth body's normal there, where a
+  // polygon's vertex stands for a point of its curve, and between a corner's two faces).
   KOKKOS_INLINE_FUNCTION SignedDistance polygon_distance(index_t k, real_t x, real_t y) const {
     real_t best_squared = real_t(1e30), best_dx = 0, best_dy = 0;
     index_t best_edge = polygon_edges(k);
+    real_t best_along = 0;
     bool inside = false;
     for (index_t e = polygon_edges(k); e < polygon_edges(k + 1); ++e) {
       const real_t x0 = edges(e, 0), y0 = edges(e, 1), x1 = edges(e, 2), y1 = edges(e, 3);
       // Nearest point of the edge.
       const real_t ex = x1 - x0, ey = y1 - y0;
-      real_t s = ((x - x0) * ex + (y - y0) * ey) / (ex * ex + ey * ey);
-      s = s < 0 ? real_t(0) : (s > 1 ? real_t(1) : s);
+      const real_t along = ((x - x0) * ex + (y - y0) * ey) / (ex * ex + ey * ey);
+      const real_t s = along < 0 ? real_t(0) : (along > 1 ? real_t(1) : along);
       const real_t dx = x - (x0 + s * ex), dy = y - (y0 + s * ey);
       const real_t squared = dx * dx + dy * dy;
       if (squared < best_squared) {
@@ -94,17 +110,36 @@ struct ObstacleSet {
         best_dx = dx;
         best_dy = dy;
         best_edge = e;
+        best_along = along;
       }
       // Even-odd rule: count the edges a ray towards +x crosses.
       if ((y0 > y) != (y1 > y) && x < x0 + (y - y0) * ex / ey) inside = !inside;
     }
-    const real_t d = square_root(best_squared);
     const real_t sign = inside ? real_t(-1) : real_t(1);
+    real_t nx, ny;
+    const real_t length = edge_normal(best_edge, nx, ny);
+    const real_t d = snapped_to_surface(square_root(best_squared), absolute_value(x) + absolute_value(y) + length);
+    const bool at_vertex = best_along <= 0 || best_along >= 1;
+    if (!at_vertex) return {sign * d, nx, ny};
     if (d > 0) return {sign * d, sign * best_dx / d, sign * best_dy / d};
-    // On the boundary: the edge's outward normal (edges run counter-clockwise).
-    const real_t ex = edges(best_edge, 2) - edges(best_edge, 0), ey = edges(best_edge, 3) - edges(best_edge, 1);
+    // On the vertex: the edge before it (best_along <= 0: the vertex starts the edge) or after it.
+    const index_t first = polygon_edges(k), last = polygon_edges(k + 1) - 1;
+    const index_t other = best_along <= 0 ? (best_edge == first ? last : best_edge - 1)
+                                          : (best_edge == last ? first : best_edge + 1);
+    real_t mx, my;
+    edge_normal(other, mx, my);
+    const real_t mean = square_root((nx + mx) * (nx + mx) + (ny + my) * (ny + my));
+    return {0, (nx + mx) / mean, (ny + my) / mean};
+  }
+
+  // The outward unit normal of edge e (edges run counter-clockwise: the right-hand normal points
+  // out); returns the edge's length.
+  KOKKOS_INLINE_FUNCTION real_t edge_normal(index_t e, real_t& nx, real_t& ny) const {
+    const real_t ex = edges(e, 2) - edges(e, 0), ey = edges(e, 3) - edges(e, 1);
     const real_t length = square_root(ex * ex + ey * ey);
-    return {0, ey / length, -ex / length};
+    nx = ey / length;
+    ny = -ex / length;
+    return length;
   }
 };
 

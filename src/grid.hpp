@@ -15,6 +15,12 @@ namespace mpmflow {
 // The sides of the domain.
 enum Side : int { left_side = 0, right_side, bottom_side, top_side, num_sides };
 
+// The inward unit normal of a side.
+KOKKOS_INLINE_FUNCTION void inward_normal(int side, real_t& nx, real_t& ny) {
+  nx = side == left_side ? 1 : (side == right_side ? -1 : 0);
+  ny = side == bottom_side ? 1 : (side == top_side ? -1 : 0);
+}
+
 // Index rectangle [begin_x, end_x) x [begin_y, end_y) of nodes or cells (also in device code: the
 // halo exchange's and the side conditions' kernels walk such rectangles).
 struct IndexRange2D {

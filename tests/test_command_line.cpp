@@ -163,6 +163,10 @@ TEST_F(CommandLine, HostileInputIsRefusedQuickly) {
   expect_rejected("run case.json --set 'initial_state/regions/0/x=[2,3]'",
                   "case.json: /initial_state/regions/0: expected a box overlapping the domain");
   expect_rejected("run case.json --set 'obstacles=[{\"type\": \"rectangle\", \"x\": [0, 1], \"y\": [0, 0.01]}]'",
+                  "case.json: /obstacles/0 (rectangle): expected an obstacle with a surface inside the domain; "
+                  "every edge lies on a side of the domain");
+  expect_rejected("run case.json --set 'obstacles=[{\"type\": \"rectangle\", \"x\": [0, 0.5], \"y\": [0, 0.01]}, "
+                  "{\"type\": \"rectangle\", \"x\": [0.5, 1], \"y\": [0, 0.01]}]'",
                   "case.json: no gas in the domain");
   expect_rejected("run case.json --set boundaries/left/type=inflow --set "
                   "'free_stream={\"density\": 1, \"pressure\": 1, \"velocity\": [-1, 0]}'",
