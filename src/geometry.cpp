@@ -297,7 +297,7 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   // Evaluated once on the host at start-up (the obstacles are at rest); 1e30 without obstacles.
   std::vector<real_t> node_distance(geo.num_nodes());
   std::vector<index_t> nodes;
-  std::vector<real_t> normals_x, normals_y;
+  std::vector<real_t> normals_x, normals_y, on_surface;
   for (index_t j = 0; j < geo.nodes_y; ++j)
     for (index_t i = 0; i < geo.nodes_x; ++i) {
       const SignedDistance sd = host(geo.node_x(i), geo.node_y(j));
@@ -307,24 +307,26 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
         nodes.push_back(node);
         normals_x.push_back(sd.normal_x);
         normals_y.push_back(sd.normal_y);
+        on_surface.push_back(sd.distance == 0 ? 1 : 0);
       }
     }
   grid.node_gas_volume =
       node_gas_volumes(host, node_distance, slab, sides, std::hypot(geo.spacing_x, geo.spacing_y));
   if (host.empty()) {
     grid.obstacle_nodes = IndexView("obstacle_nodes", 0);
-    grid.obstacle_normals = NodeFieldsView("obstacle_normals", 0, 2);
+    grid.obstacle_normals = NodeFieldsView("obstacle_normals", 0, 3);
     grid.obstacle_of_node = IndexView("obstacle_of_node", 0);
     return grid;
   }
   grid.obstacle_nodes = IndexView("obstacle_nodes", nodes.size());
-  grid.obstacle_normals = NodeFieldsView("obstacle_normals", nodes.size(), 2);
+  grid.obstacle_normals = NodeFieldsView("obstacle_normals", nodes.size(), 3);
   auto nodes_host = host_mirror(grid.obstacle_nodes);
   auto normals_host = host_mirror(grid.obstacle_normals);
   for (size_t k = 0; k < nodes.size(); ++k) {
     nodes_host(k) = nodes[k];
     normals_host(k, 0) = normals_x[k];
     normals_host(k, 1) = normals_y[k];
+    normals_host(k, 2) = on_surface[k];
   }
   Kokkos::deep_copy(grid.obstacle_nodes, nodes_host);
   Kokkos::deep_copy(grid.obstacle_normals, normals_host);

@@ -149,14 +149,17 @@ using DeviceObstacleSet = ObstacleSet<MemorySpace>;
 HostObstacleSet make_host_obstacle_set(const std::vector<ObstacleConfig>& obstacles);
 DeviceObstacleSet copy_to_device(const HostObstacleSet& host);
 
-// What the grid needs of the obstacles, computed once at start: the nodes inside an obstacle
-// (signed distance <= 0) with their outward normals, where the grid conditions remove the normal
-// momentum and force; and a flag per cell that an obstacle may reach into it, so that only
-// particles in flagged cells evaluate the exact distance after their move.
+// What the grid needs of the obstacles, computed once at start: the nodes inside an obstacle or
+// on its surface (signed distance <= 0) with their outward normals, where the grid conditions
+// remove the normal momentum and force; and a flag per cell that an obstacle may reach into it, so
+// that only particles in flagged cells evaluate the exact distance after their move.
 struct ObstacleGrid {
   DeviceObstacleSet obstacles;
   IndexView obstacle_nodes;
-  NodeFieldsView obstacle_normals;  // (k, {n_x, n_y}) of obstacle_nodes(k)
+  // (k, {n_x, n_y, on_surface}) of obstacle_nodes(k): the outward normal, and 1 where the node
+  // lies on the surface (within round-off: on a face along a grid line), 0 inside.
+  NodeFieldsView obstacle_normals;
+  static constexpr int on_surface_column = 2;
   IndexView cell_near_obstacle;     // 1 where a corner of the cell lies within a cell diagonal of an obstacle
   // The box around the flagged cells (empty, min > max, where none is; unbounded on a side where
   // a flagged cell lies at the edge of the local grid): a particle outside it needs no look-up of

@@ -227,8 +227,8 @@ std::string half_disc_points_file(const std::string& name, double cx, double r, 
 // inside just above the floor, or on the floor under the body (where the clamp to the domain puts
 // particles), is inside, and its nearest surface is the arc. (Before, the base was the nearest
 // surface: a particle that came in at the stagnation point on the floor was put back below the
-// floor, clamped onto it, and slid along it through the body; 29 particles inside it at t = 1 in
-// the Mach 3 tunnel below.)
+// floor, clamped onto it, and slid along it through the body: WindTunnel.
+// AHalfCylinderOnASymmetryWallIsHalfTheCylinder.)
 TEST(SignedDistance, AnEdgeOnASideOfTheDomainIsNoSurface) {
   const std::string points = half_disc_points_file("half_disc", 2, 0.5);
   const CaseConfig config = parse_case(
@@ -941,6 +941,55 @@ TEST(GridConditions, ObstacleNodesKeepNoNormalMomentumOrForceAndTheBodyTakesTheF
     }
   }
   EXPECT_GT(outward, count / 4);  // outward parts were there to remove
+  ASSERT_EQ(forces.x.size(), 1u);
+  EXPECT_NEAR(forces.x[0], removed_x, 1e-12);
+  EXPECT_NEAR(forces.y[0], removed_y, 1e-12);
+}
+
+// On the nodes on a body's surface (its faces along grid lines) the conditions remove only the
+// inward normal momentum and force (eqs. 21-22), and the body takes only the force removed; the
+// nodes inside lose the whole normal part, as above.
+TEST(GridConditions, SurfaceNodesKeepTheGasFromEnteringOnly) {
+  const CaseConfig config = tunnel_config(R"(, "obstacles": [{"type": "rectangle", "x": [1, 2.5], "y": [0.5, 1.2]}])");
+  const GridSlab slab = make_grid_slab(config.domain, 0, 0, 40);
+  const SlabState slab_state(config, slab);
+  const NodeFieldsView state = slab_state.fields().state;
+  const ObstacleGrid& obstacles = slab_state.obstacles();
+  const index_t count = obstacles.num_obstacle_nodes();
+  const auto initial = Kokkos::create_mirror(state);
+  for (size_t node = 0; node < state.extent(0); ++node)
+    for (size_t c = 0; c < state.extent(1); ++c)
+      initial(node, c) = c == GridFields::mass ? 1.0 : std::sin(1.7 * double(node) + 0.9 * double(c));
+  Kokkos::deep_copy(state, initial);
+  ObstacleForces forces;
+  slab_state.grid_boundaries().apply_to_momentum_and_force(state, &forces);
+  const auto after = Kokkos::create_mirror(state);
+  Kokkos::deep_copy(after, state);
+  const auto nodes = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), obstacles.obstacle_nodes);
+  const auto normals = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), obstacles.obstacle_normals);
+  double removed_x = 0, removed_y = 0;
+  int on_surface = 0, kept_outward = 0;
+  for (index_t k = 0; k < count; ++k) {
+    const index_t node = nodes(k);
+    const double nx = normals(k, 0), ny = normals(k, 1);
+    const bool surface = normals(k, ObstacleGrid::on_surface_column) > 0;
+    on_surface += surface;
+    for (const int column : {int(GridFields::momentum_x), int(GridFields::force_x)}) {
+      const double before_n = initial(node, column) * nx + initial(node, column + 1) * ny;
+      const double before_t = -initial(node, column) * ny + initial(node, column + 1) * nx;
+      const double after_n = after(node, column) * nx + after(node, column + 1) * ny;
+      const double after_t = -after(node, column) * ny + after(node, column + 1) * nx;
+      const bool kept = surface && before_n > 0;
+      kept_outward += kept;
+      EXPECT_NEAR(after_n, kept ? before_n : 0, 1e-14) << "node " << node << ", column " << column;
+      EXPECT_NEAR(after_t, before_t, 1e-14) << "node " << node << ", column " << column;
+      if (column == GridFields::force_x && !kept) removed_x += before_n * nx, removed_y += before_n * ny;
+    }
+  }
+  // The faces' nodes (x from 1 to 2.5, y from 0.5 to 1.2, spacing 0.1): 16 + 16 + 8 + 8 less
+  // the 4 corners counted twice; and outward parts there to keep.
+  EXPECT_EQ(on_surface, 44);
+  EXPECT_GT(kept_outward, 10);
   ASSERT_EQ(forces.x.size(), 1u);
   EXPECT_NEAR(forces.x[0], removed_x, 1e-12);
   EXPECT_NEAR(forces.y[0], removed_y, 1e-12);
