@@ -48,8 +48,8 @@ struct SignedDistance {
 
 // The round-off of a distance computed from coordinates and lengths of about `scale`: a few
 // thousand units of their last place. A point within it of a surface is on the surface: a node on
-// a face along a grid line is then inside (the grid conditions remove its normal momentum), every
-// node of the face alike, rather than inside or out as the last bits fall.
+// a face along a grid line is then an obstacle node on the surface (ObstacleGrid), every node of
+// the face alike, rather than inside or out as the last bits fall.
 KOKKOS_INLINE_FUNCTION real_t distance_round_off(real_t scale) { return 1024 * real_epsilon * scale; }
 KOKKOS_INLINE_FUNCTION real_t snapped_to_surface(real_t distance, real_t scale) {
   return absolute_value(distance) <= distance_round_off(scale) ? real_t(0) : distance;
