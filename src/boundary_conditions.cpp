@@ -279,6 +279,11 @@ void apply_side_conditions(const GridGeometry& geo, const SideConditionBands& ba
       });
 }
 
+// Whether the conditions leave an obstacle node's normal part a_n (of momentum or force): on a
+// node on the surface an outward part stays (eqs. 21-22; remove_normal_component below says why),
+// inside the whole normal part goes. The body's force counts what goes (ObstacleForceSums).
+KOKKOS_INLINE_FUNCTION bool keeps_normal_part(bool on_surface, real_t a_n) { return on_surface && a_n > 0; }
+
 // On the nodes inside an obstacle the whole normal component goes, as on the domain's slip walls:
 // an inviscid gas keeps to a wall (v.n = 0 there) while its pressure is above zero. The paper's
 // eqs. 21-22 remove only the inward component, as for a solid body that may come off a wall; with
@@ -307,7 +312,7 @@ void remove_normal_component(const ObstacleGrid& obstacles, const NodeFieldsView
         const bool on_surface = normals(k, ObstacleGrid::on_surface_column) > 0;
         const auto remove = [&](int column) {
           const real_t a_n = fields(node, column) * nx + fields(node, column + 1) * ny;
-          if (on_surface && a_n > 0) return;
+          if (keeps_normal_part(on_surface, a_n)) return;
           fields(node, column) -= a_n * nx;
           fields(node, column + 1) -= a_n * ny;
         };
@@ -333,7 +338,7 @@ struct ObstacleForceSums {
     const index_t node = nodes(k);
     const real_t nx = normals(k, 0), ny = normals(k, 1);
     const real_t f_n = state(node, GridFields::force_x) * nx + state(node, GridFields::force_y) * ny;
-    if (normals(k, ObstacleGrid::on_surface_column) > 0 && f_n > 0) return;  // kept: not the body's
+    if (keeps_normal_part(normals(k, ObstacleGrid::on_surface_column) > 0, f_n)) return;  // not the body's
     sums[2 * o] += f_n * nx;
     sums[2 * o + 1] += f_n * ny;
   }
