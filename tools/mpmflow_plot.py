@@ -44,6 +44,14 @@ python3-numpy (scripts/setup.sh installs them).
       relation for the case's free stream and gamma): the shock angle fitted through the apex, and
       the particles' mean density and pressure and their scatter between the wedge and the shock;
       with the --max-* options, exits 1 when an error or a scatter exceeds its bound.
+  mpmflow_plot.py shock-expansion OUTPUT_DIR [--obstacle K] [--band A B] [--max-pressure-error F]
+                  [--max-median-error F]
+      A sharp-edged polygon (a diamond, a ridge, a wedge) in a supersonic stream in the last output
+      against shock-expansion theory: each face's Mach number and pressure from the face before it,
+      through an attached oblique shock where it turns into the flow and a Prandtl-Meyer expansion
+      where it turns away; the mean and median pressure of the particles A to B cells off each face
+      (default 0.5 to 3), clear of the waves from its vertices; with the --max-* options, exits 1
+      when a face's error exceeds the bound.
   mpmflow_plot.py forces OUTPUT_DIR [--obstacle K] [--last K] [--out DIR] [--min-drag X] [--max-drag Y]
       From diagnostics.csv: the drag and lift coefficients of an obstacle (the mean force between
       outputs over q_inf times its reference length) per output, their mean over the last K
@@ -582,6 +590,171 @@ def oblique_shock_angle(mach, gamma, wedge_angle):
     return 0.5 * (lo + hi)
 
 
+def oblique_shock_jump(mach, gamma, beta, theta):
+    """Across an oblique shock at angle `beta` that turns a flow at `mach` by `theta` (radians): the
+    pressure and density ratios (Rankine-Hugoniot on the normal Mach number) and the Mach number
+    behind it."""
+    normal2 = (mach * math.sin(beta)) ** 2
+    pressure_ratio = 1 + 2 * gamma / (gamma + 1) * (normal2 - 1)
+    density_ratio = (gamma + 1) * normal2 / ((gamma - 1) * normal2 + 2)
+    normal_behind2 = (1 + 0.5 * (gamma - 1) * normal2) / (gamma * normal2 - 0.5 * (gamma - 1))
+    return pressure_ratio, density_ratio, math.sqrt(normal_behind2) / math.sin(beta - theta)
+
+
+def prandtl_meyer_angle(mach, gamma):
+    """The Prandtl-Meyer function nu(M) (radians): the angle a flow turns through from Mach 1 to
+    `mach` in an isentropic expansion."""
+    k = math.sqrt((gamma + 1) / (gamma - 1))
+    return k * math.atan(math.sqrt(mach * mach - 1) / k) - math.atan(math.sqrt(mach * mach - 1))
+
+
+def prandtl_meyer_mach(angle, gamma):
+    """The Mach number whose Prandtl-Meyer angle is `angle` (radians), by bisection (nu increases
+    with M); None beyond the largest turning, nu(infinity), where the gas has expanded to vacuum."""
+    k = math.sqrt((gamma + 1) / (gamma - 1))
+    if angle >= 0.5 * math.pi * (k - 1):
+        return None
+    lo, hi = 1.0, 2.0
+    while prandtl_meyer_angle(hi, gamma) < angle:
+        lo, hi = hi, 2 * hi
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if prandtl_meyer_angle(mid, gamma) < angle else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def shock_expansion_faces(outline, on_side, flow, mach, pressure, gamma):
+    """Shock-expansion theory along a sharp-edged polygon in a supersonic stream: from the leading
+    vertex (the first along `flow`) to the trailing one along each side, each face's state from the
+    one before it, through an attached oblique shock where the face turns into the flow and a
+    Prandtl-Meyer expansion centred on the vertex where it turns away (exact for the faces of a
+    diamond or a ridge: straight faces, waves from one vertex only). Faces on a side of the domain
+    (`on_side(k)`, edge k from vertex k to k + 1) are no surface and are left out. Returns, per face
+    reached: (edge, side name, turning in degrees, Mach number, pressure, the first distance along
+    the face, from its start, at which the waves from its start vertex are `clear` away from it:
+    the shock's or the expansion's last Mach line's distance from the face grows as
+    distance * tan(angle), and whether the flow runs along the edge backwards, from vertex k + 1 to
+    k); a face behind a detached shock, or beyond an expansion to vacuum,
+    ends its side."""
+    n = len(outline)
+    along = outline @ flow
+    leading, trailing = int(along.argmin()), int(along.argmax())
+    chord = outline[trailing] - outline[leading]
+    faces = []
+    for step in (1, -1):
+        chain = [leading]
+        while chain[-1] != trailing:
+            chain.append((chain[-1] + step) % n)
+        middle = outline[chain[1:-1]].mean(axis=0) if len(chain) > 2 else outline[leading]
+        upper = chord[0] * (middle - outline[leading])[1] - chord[1] * (middle - outline[leading])[0] > 0
+        direction, state = flow, (mach, pressure)
+        for a, b in zip(chain[:-1], chain[1:]):
+            edge = a if step == 1 else b
+            face = outline[b] - outline[a]
+            face = face / np.hypot(*face)
+            turn = math.atan2(direction[0] * face[1] - direction[1] * face[0], direction @ face)
+            turn = turn if upper else -turn  # positive into the flow: a compression
+            m, p = state
+            if turn > 0:
+                beta = oblique_shock_angle(m, gamma, turn)
+                if beta is None:
+                    break
+                pressure_ratio, _, m = oblique_shock_jump(m, gamma, beta, turn)
+                p, angle = p * pressure_ratio, beta - turn
+            elif turn < 0:
+                m2 = prandtl_meyer_mach(prandtl_meyer_angle(m, gamma) - turn, gamma)
+                if m2 is None:
+                    break
+                p *= ((1 + 0.5 * (gamma - 1) * m * m) / (1 + 0.5 * (gamma - 1) * m2 * m2)) ** (gamma / (gamma - 1))
+                m, angle = m2, math.asin(1 / m2)
+            else:
+                angle = 0.5 * math.pi
+            if m <= 1:
+                break
+            state, direction = (m, p), face
+            if not on_side(edge):
+                faces.append((edge, "upper" if upper else "lower", math.degrees(turn), m, p, angle, step == -1))
+    return faces
+
+
+def shock_expansion(args):
+    """The pressure on each face of a sharp-edged polygon obstacle in a supersonic stream against
+    shock-expansion theory (shock_expansion_faces): the mean pressure of the particles whose
+    nearest face it is, between --band A and B cells from it, away from the waves of the face's
+    start vertex (two cells and the band beyond them; three cells more past a shock, which the
+    artificial viscosity spreads over about three cells) and from its end vertex (two cells)."""
+    s = Snapshot(snapshot_files(args.output_dir)[-1])
+    if not s.free_stream:
+        sys.exit(f"mpmflow_plot: error: {s.path}: the case has no free_stream")
+    if args.obstacle >= len(s.obstacles) or s.obstacle_is_circle[args.obstacle]:
+        sys.exit(f"mpmflow_plot: error: {s.path}: obstacle {args.obstacle} is not a polygon")
+    g = s.gamma
+    velocity = np.array(s.free_stream["velocity"], dtype=float)
+    flow = velocity / np.hypot(*velocity)
+    mach = free_stream_mach(s.free_stream, g)
+    if mach <= 1:
+        sys.exit(f"mpmflow_plot: error: {s.path}: the free stream is not supersonic (Mach {mach:.3f})")
+    outline = np.asarray(s.obstacles[args.obstacle], dtype=float)
+    if 0.5 * np.sum(outline[:, 0] * np.roll(outline[:, 1], -1) - np.roll(outline[:, 0], -1) * outline[:, 1]) < 0:
+        outline = outline[::-1]  # counter-clockwise: each edge's right-hand normal points out
+    h = max(s.spacing)
+    x0, x1, y0, y1 = s.extent()
+    tolerance = 1e-9 * max(x1 - x0, y1 - y0)
+
+    def on_side(k):
+        a, b = outline[k], outline[(k + 1) % len(outline)]
+        return any(abs(a[i] - v) <= tolerance and abs(b[i] - v) <= tolerance for i, v in ((0, x0), (0, x1), (1, y0), (1, y1)))
+
+    faces = shock_expansion_faces(outline, on_side, flow, mach, float(s.free_stream["pressure"]), g)
+    if not faces:
+        sys.exit(f"mpmflow_plot: error: {s.path}: no face of obstacle {args.obstacle} for shock-expansion theory")
+    a = outline
+    edge = np.roll(outline, -1, axis=0) - a
+    length = np.hypot(*edge.T)
+    points = np.column_stack([s.x, s.y])
+    # Nearest surface edge of every particle near the obstacle, its foot and distance.
+    lo, hi = outline.min(axis=0) - (args.band[1] + 1) * h, outline.max(axis=0) + (args.band[1] + 1) * h
+    near = np.all((points > lo) & (points < hi), axis=1)
+    surface = np.array([not on_side(k) for k in range(len(outline))])
+    rel = points[near][:, None, :] - a[None]
+    foot = np.clip((rel * edge[None]).sum(axis=2) / (length ** 2)[None], 0, 1)
+    distance = np.hypot(*(rel - foot[..., None] * edge[None]).transpose(2, 0, 1))
+    distance[:, ~surface] = np.inf
+    which = distance.argmin(axis=1)
+    rows = np.arange(len(which))
+    along, d = foot[rows, which] * length[which], distance[rows, which]
+    # On the gas's side of the face: along its right-hand normal, which points out.
+    outward = rel[rows, which, 0] * edge[which, 1] - rel[rows, which, 1] * edge[which, 0] > 0
+    pressure = s.particles["pressure"][near]
+    print(f"{s.case} t = {s.time:g}: Mach {mach:.3f}, obstacle {args.obstacle}, h = {h:g}, "
+          f"particles {args.band[0]:g} to {args.band[1]:g} cells from each face")
+    failed = False
+    for k, side, turn, m, p, angle, backwards in faces:
+        start = (2 + args.band[1] + (3 if turn > 0 else 0)) * h / math.tan(angle)
+        end = length[k] - 2 * h
+        if start >= end:
+            print(f"  face {k} ({side}, turning {turn:+.2f} deg): Mach {m:.3f}, pressure {p:.4f}; too short to measure at h = {h:g}")
+            continue
+        downstream = length[k] - along if backwards else along  # from the face's upstream vertex
+        chosen = ((which == k) & outward & (d >= args.band[0] * h) & (d <= args.band[1] * h) & (downstream >= start)
+                  & (downstream <= end))
+        if not np.any(chosen):
+            print(f"  face {k} ({side}, turning {turn:+.2f} deg): Mach {m:.3f}, pressure {p:.4f}; no particle in its band")
+            failed = True
+            continue
+        mean, median = float(np.mean(pressure[chosen])), float(np.median(pressure[chosen]))
+        error, median_error = (mean - p) / p, (median - p) / p
+        scatter = float(np.std(pressure[chosen])) / mean
+        print(f"  face {k} ({side}, turning {turn:+.2f} deg): Mach {m:.3f}, pressure {p:.4f}; "
+              f"{np.count_nonzero(chosen)} particles at {start / length[k]:.2f}-{end / length[k]:.2f} of it: "
+              f"mean {mean:.4f} ({100 * error:+.2f}%), median {median:.4f} ({100 * median_error:+.2f}%), "
+              f"scatter {100 * scatter:.1f}%")
+        failed = breaks_bound(f"face {k} mean pressure error", abs(error), args.max_pressure_error, percent(2)) or failed
+        failed = breaks_bound(f"face {k} median pressure error", abs(median_error), args.max_median_error,
+                              percent(2)) or failed
+    return 1 if failed else 0
+
+
 def oblique_shock(args):
     """The shock of a wedge in the last output against the exact oblique shock: its angle, fitted
     through the apex to where the particle density (median per half-cell bin along vertical lines,
@@ -600,9 +773,8 @@ def oblique_shock(args):
     beta = oblique_shock_angle(mach, g, theta)
     if beta is None:
         sys.exit(f"mpmflow_plot: error: at Mach {mach:.3f} a {args.wedge_angle} degree wedge detaches its shock")
-    normal2 = (mach * math.sin(beta)) ** 2
-    p2 = p1 * (1 + 2 * g / (g + 1) * (normal2 - 1))
-    rho2 = rho1 * (g + 1) * normal2 / ((g - 1) * normal2 + 2)
+    pressure_ratio, density_ratio, _ = oblique_shock_jump(mach, g, beta, theta)
+    p2, rho2 = p1 * pressure_ratio, rho1 * density_ratio
     h = max(s.spacing)
     x0, y0 = args.apex
     x_max, y_max = s.extent()[1], s.extent()[3]
@@ -1028,6 +1200,14 @@ def main():
     wedge.add_argument("--max-state-error", type=float, help="largest relative error of the mean density and pressure")
     wedge.add_argument("--max-density-scatter", type=float)
     wedge.add_argument("--max-pressure-scatter", type=float)
+    faces = sub.add_parser("shock-expansion",
+                           help="the pressure on a sharp polygon's faces against shock-expansion theory")
+    faces.add_argument("output_dir")
+    faces.add_argument("--obstacle", type=int, default=0)
+    faces.add_argument("--band", type=float, nargs=2, default=(0.5, 3.0), metavar=("A", "B"),
+                       help="the particles between A and B cells from a face (default 0.5 3)")
+    faces.add_argument("--max-pressure-error", type=float, help="largest relative error of a face's mean pressure")
+    faces.add_argument("--max-median-error", type=float, help="largest relative error of a face's median pressure")
     balance = sub.add_parser("mass-balance", help="the mass balance with the open sides, from diagnostics.csv")
     balance.add_argument("output_dir")
     balance.add_argument("--max-residual", type=float)
@@ -1067,6 +1247,8 @@ def main():
         sys.exit(particle_scatter(args))
     elif args.command == "oblique-shock":
         sys.exit(oblique_shock(args))
+    elif args.command == "shock-expansion":
+        sys.exit(shock_expansion(args))
     elif args.command == "mass-balance":
         sys.exit(mass_balance(args))
     elif args.command == "riemann-error":
