@@ -27,8 +27,7 @@ for face in "lower, turning +10.00 deg): Mach 2.505, pressure 2.0545;" "upper, t
   fi
 done
 # The wave drag from the obstacle's reaction on the grid: exact 2 (2.0545 - 0.4352) tan 10 deg over
-# q c = 6.3 x 2, 0.0453; within -5 % and +10 % (seen: 0.0487, +7.4 %, from the thin gas on the rear
-# faces; 0.0473 at 350 x 200 cells).
+# q c = 6.3 x 2, 0.0453; within -5 % and +10 % (seen: 0.0487, +7.4 %; 0.0473 at 350 x 200 cells).
 /usr/bin/python3 "$source_dir/tools/mpmflow_plot.py" forces "$work_dir/default" --last 2 --out "$work_dir" \
   --min-drag 0.0430 --max-drag 0.0499
 "$binary" run "$case_file" --set numerics/volume_correction=false --output "$work_dir/without" > "$work_dir/without.log"
