@@ -279,10 +279,34 @@ void apply_side_conditions(const GridGeometry& geo, const SideConditionBands& ba
       });
 }
 
-// Whether the conditions leave an obstacle node's normal part a_n (of momentum or force): on a
-// node on the surface an outward part stays (eqs. 21-22; remove_normal_component below says why),
-// inside the whole normal part goes. The body's force counts what goes (ObstacleForceSums).
-KOKKOS_INLINE_FUNCTION bool keeps_normal_part(bool on_surface, real_t a_n) { return on_surface && a_n > 0; }
+// What the conditions remove of a vector a (momentum or force) on obstacle node k, whose row of
+// ObstacleGrid::obstacle_normals is `normals`: removed_n along its normal n and removed_m along the
+// second normal m (0 but on a convex vertex). Inside, the whole normal part; on a face, an inward
+// normal part only (eqs. 21-22; remove_normal_component below says why); on a convex vertex, each
+// face's inward part of the share of the node's gas beside that face (the node's gas is split
+// between the faces; with the faces' mean normal instead, a diamond aerofoil's leading edge
+// stopped the gas it parts, whose heat and slowness then ran along both faces: README, Validation).
+// The body's force counts what goes (ObstacleForceSums).
+struct RemovedNormalParts {
+  real_t n_x, n_y, m_x = 0, m_y = 0;
+  real_t removed_n = 0, removed_m = 0;
+
+  KOKKOS_INLINE_FUNCTION RemovedNormalParts(const NodeFieldsView& normals, index_t k, real_t a_x, real_t a_y)
+      : n_x(normals(k, ObstacleGrid::normal_x_column)), n_y(normals(k, ObstacleGrid::normal_y_column)) {
+    const real_t placement = normals(k, ObstacleGrid::placement_column);
+    const real_t a_n = a_x * n_x + a_y * n_y;
+    if (placement != ObstacleGrid::on_convex_vertex) {
+      removed_n = placement == ObstacleGrid::on_face && a_n > 0 ? real_t(0) : a_n;
+      return;
+    }
+    m_x = normals(k, ObstacleGrid::second_normal_x_column);
+    m_y = normals(k, ObstacleGrid::second_normal_y_column);
+    const real_t share = normals(k, ObstacleGrid::face_share_column);
+    const real_t a_m = a_x * m_x + a_y * m_y;
+    removed_n = a_n < 0 ? share * a_n : real_t(0);
+    removed_m = a_m < 0 ? share * a_m : real_t(0);
+  }
+};
 
 // On the nodes inside an obstacle the whole normal component goes, as on the domain's slip walls:
 // an inviscid gas keeps to a wall (v.n = 0 there) while its pressure is above zero. The paper's
@@ -308,13 +332,13 @@ void remove_normal_component(const ObstacleGrid& obstacles, const NodeFieldsView
   Kokkos::parallel_for(
       "obstacle_nodes", Kokkos::RangePolicy<ExecutionSpace>(0, count), KOKKOS_LAMBDA(const index_t k) {
         const index_t node = nodes(k);
-        const real_t nx = normals(k, 0), ny = normals(k, 1);
-        const bool on_surface = normals(k, ObstacleGrid::on_surface_column) > 0;
         const auto remove = [&](int column) {
-          const real_t a_n = fields(node, column) * nx + fields(node, column + 1) * ny;
-          if (keeps_normal_part(on_surface, a_n)) return;
-          fields(node, column) -= a_n * nx;
-          fields(node, column + 1) -= a_n * ny;
+          const RemovedNormalParts removed(normals, k, fields(node, column), fields(node, column + 1));
+          fields(node, column) -= removed.removed_n * removed.n_x;
+          fields(node, column + 1) -= removed.removed_n * removed.n_y;
+          if (removed.removed_m == 0) return;
+          fields(node, column) -= removed.removed_m * removed.m_x;
+          fields(node, column + 1) -= removed.removed_m * removed.m_y;
         };
         remove(column_x);
         if (second_column_x >= 0) remove(second_column_x);
@@ -336,11 +360,12 @@ struct ObstacleForceSums {
     const index_t o = of_node(k);
     if (o < 0) return;
     const index_t node = nodes(k);
-    const real_t nx = normals(k, 0), ny = normals(k, 1);
-    const real_t f_n = state(node, GridFields::force_x) * nx + state(node, GridFields::force_y) * ny;
-    if (keeps_normal_part(normals(k, ObstacleGrid::on_surface_column) > 0, f_n)) return;  // not the body's
-    sums[2 * o] += f_n * nx;
-    sums[2 * o + 1] += f_n * ny;
+    const RemovedNormalParts removed(normals, k, state(node, GridFields::force_x), state(node, GridFields::force_y));
+    sums[2 * o] += removed.removed_n * removed.n_x;
+    sums[2 * o + 1] += removed.removed_n * removed.n_y;
+    if (removed.removed_m == 0) return;
+    sums[2 * o] += removed.removed_m * removed.m_x;
+    sums[2 * o + 1] += removed.removed_m * removed.m_y;
   }
 };
 

@@ -1,6 +1,7 @@
 #include "geometry.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -176,6 +177,12 @@ Polygon signed_distance_polygon(const ObstacleConfig& o) {
 
 }  // namespace
 
+double convex_vertex_face_share(double n0_x, double n0_y, double n1_x, double n1_y) {
+  const double pi = std::acos(-1.0);
+  const double phi = std::acos(std::clamp(n0_x * n1_x + n0_y * n1_y, -1.0, 1.0));
+  return 0.5 * pi / (pi + phi);
+}
+
 HostObstacleSet make_host_obstacle_set(const std::vector<ObstacleConfig>& obstacles) {
   HostObstacleSet set;
   index_t num_circles = 0;
@@ -297,36 +304,48 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   // Evaluated once on the host at start-up (the obstacles are at rest); 1e30 without obstacles.
   std::vector<real_t> node_distance(geo.num_nodes());
   std::vector<index_t> nodes;
-  std::vector<real_t> normals_x, normals_y, on_surface;
+  std::vector<std::array<real_t, ObstacleGrid::num_columns>> rows;
   for (index_t j = 0; j < geo.nodes_y; ++j)
     for (index_t i = 0; i < geo.nodes_x; ++i) {
       const SignedDistance sd = host(geo.node_x(i), geo.node_y(j));
       const index_t node = geo.node_index(i, j);
       node_distance[node] = sd.distance;
-      if (sd.distance <= 0) {
-        nodes.push_back(node);
-        normals_x.push_back(sd.normal_x);
-        normals_y.push_back(sd.normal_y);
-        on_surface.push_back(sd.distance == 0 ? 1 : 0);
+      if (sd.distance > 0) continue;
+      nodes.push_back(node);
+      std::array<real_t, ObstacleGrid::num_columns> row{};
+      row[ObstacleGrid::normal_x_column] = sd.normal_x;
+      row[ObstacleGrid::normal_y_column] = sd.normal_y;
+      row[ObstacleGrid::placement_column] = sd.distance < 0 ? ObstacleGrid::inside : ObstacleGrid::on_face;
+      // A node on a domain side keeps the mean normal: there the polygon's faces may include the
+      // edge continued beyond the side (signed_distance_polygon), where no gas is.
+      const index_t gx = i + slab.node_offset_x, gy = j + slab.node_offset_y;
+      const bool on_a_side = gx <= 0 || gx >= slab.global_cells_x || gy <= 0 || gy >= slab.global_cells_y;
+      if (sd.on_convex_vertex && !on_a_side) {
+        row[ObstacleGrid::placement_column] = ObstacleGrid::on_convex_vertex;
+        row[ObstacleGrid::normal_x_column] = sd.face_normal_x[0];
+        row[ObstacleGrid::normal_y_column] = sd.face_normal_y[0];
+        row[ObstacleGrid::second_normal_x_column] = sd.face_normal_x[1];
+        row[ObstacleGrid::second_normal_y_column] = sd.face_normal_y[1];
+        row[ObstacleGrid::face_share_column] = static_cast<real_t>(
+            convex_vertex_face_share(sd.face_normal_x[0], sd.face_normal_y[0], sd.face_normal_x[1], sd.face_normal_y[1]));
       }
+      rows.push_back(row);
     }
   grid.node_gas_volume =
       node_gas_volumes(host, node_distance, slab, sides, std::hypot(geo.spacing_x, geo.spacing_y));
   if (host.empty()) {
     grid.obstacle_nodes = IndexView("obstacle_nodes", 0);
-    grid.obstacle_normals = NodeFieldsView("obstacle_normals", 0, 3);
+    grid.obstacle_normals = NodeFieldsView("obstacle_normals", 0, ObstacleGrid::num_columns);
     grid.obstacle_of_node = IndexView("obstacle_of_node", 0);
     return grid;
   }
   grid.obstacle_nodes = IndexView("obstacle_nodes", nodes.size());
-  grid.obstacle_normals = NodeFieldsView("obstacle_normals", nodes.size(), 3);
+  grid.obstacle_normals = NodeFieldsView("obstacle_normals", nodes.size(), ObstacleGrid::num_columns);
   auto nodes_host = host_mirror(grid.obstacle_nodes);
   auto normals_host = host_mirror(grid.obstacle_normals);
   for (size_t k = 0; k < nodes.size(); ++k) {
     nodes_host(k) = nodes[k];
-    normals_host(k, 0) = normals_x[k];
-    normals_host(k, 1) = normals_y[k];
-    normals_host(k, 2) = on_surface[k];
+    for (int c = 0; c < ObstacleGrid::num_columns; ++c) normals_host(k, c) = rows[k][static_cast<size_t>(c)];
   }
   Kokkos::deep_copy(grid.obstacle_nodes, nodes_host);
   Kokkos::deep_copy(grid.obstacle_normals, normals_host);

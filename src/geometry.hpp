@@ -44,6 +44,10 @@ struct SignedDistance {
   real_t distance;            // negative inside an obstacle (eq. 23)
   real_t normal_x, normal_y;  // unit gradient of the distance: the outward normal (eq. 24)
   index_t obstacle = 0;       // the nearest obstacle, in case order
+  // On a convex vertex of a polygon (within round-off; the body's angle there below 180 degrees):
+  // its two faces' outward normals (normal_x, _y is their mean there).
+  bool on_convex_vertex = false;
+  real_t face_normal_x[2] = {0, 0}, face_normal_y[2] = {0, 0};
 };
 
 // The round-off of a distance computed from coordinates and lengths of about `scale`: a few
@@ -129,7 +133,15 @@ struct ObstacleSet {
     real_t mx, my;
     edge_normal(other, mx, my);
     const real_t mean = square_root((nx + mx) * (nx + mx) + (ny + my) * (ny + my));
-    return {0, (nx + mx) / mean, (ny + my) / mean};
+    SignedDistance on_vertex{0, (nx + mx) / mean, (ny + my) / mean};
+    // Convex where the edge into the vertex turns left into the edge out of it (counter-clockwise
+    // edges): the edge out's normal lies counter-clockwise of the edge in's.
+    const real_t in_x = best_along <= 0 ? mx : nx, in_y = best_along <= 0 ? my : ny;
+    const real_t out_x = best_along <= 0 ? nx : mx, out_y = best_along <= 0 ? ny : my;
+    on_vertex.on_convex_vertex = in_x * out_y - in_y * out_x > 0;
+    on_vertex.face_normal_x[0] = nx, on_vertex.face_normal_y[0] = ny;
+    on_vertex.face_normal_x[1] = mx, on_vertex.face_normal_y[1] = my;
+    return on_vertex;
   }
 
   // The outward unit normal of edge e (edges run counter-clockwise: the right-hand normal points
@@ -142,6 +154,14 @@ struct ObstacleSet {
     return length;
   }
 };
+
+// The share of a node's gas beside each face of a convex vertex it lies on, from the faces'
+// outward normals: of the gas around the vertex (the full turn less the body's angle there,
+// pi + phi, phi the angle between the normals), the quarter turn beside each face is held off
+// the body by that face; the rest, beyond the vertex, by neither (the gas ahead of a sharp
+// leading edge parts along the faces, not stopped by the edge). 1/2 between two faces in a line,
+// where the two shares add up to the face's whole condition; 1/3 at a right angle.
+double convex_vertex_face_share(double n0_x, double n0_y, double n1_x, double n1_y);
 
 using HostObstacleSet = ObstacleSet<Kokkos::HostSpace>;
 using DeviceObstacleSet = ObstacleSet<MemorySpace>;
@@ -156,10 +176,15 @@ DeviceObstacleSet copy_to_device(const HostObstacleSet& host);
 struct ObstacleGrid {
   DeviceObstacleSet obstacles;
   IndexView obstacle_nodes;
-  // (k, {n_x, n_y, on_surface}) of obstacle_nodes(k): the outward normal, and 1 where the node
-  // lies on the surface (within round-off: on a face along a grid line), 0 inside.
+  // (k, column) of obstacle_nodes(k): its outward normal (normal_x_column, normal_y_column), where
+  // it lies (placement_column: inside, on_face or on_convex_vertex, within round-off: a node on a
+  // face along a grid line, or on a polygon's vertex), and on a convex vertex the second face's
+  // normal (second_normal_x_column, _y) with the share of the node's gas beside each face
+  // (face_share_column; the first normal is then the first face's).
   NodeFieldsView obstacle_normals;
-  static constexpr int on_surface_column = 2;
+  enum Column { normal_x_column, normal_y_column, placement_column, second_normal_x_column, second_normal_y_column,
+                face_share_column, num_columns };
+  enum Placement { inside, on_face, on_convex_vertex };
   IndexView cell_near_obstacle;     // 1 where a corner of the cell lies within a cell diagonal of an obstacle
   // The box around the flagged cells (empty, min > max, where none is; unbounded on a side where
   // a flagged cell lies at the edge of the local grid): a particle outside it needs no look-up of

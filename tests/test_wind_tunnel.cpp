@@ -210,17 +210,24 @@ TEST(SignedDistance, TheNearBoxHoldsEveryCellAnObstacleMayReachInto) {
   EXPECT_FALSE(ParticleBoundaries(empty, slab, none).near_an_obstacle(2, 1));
 }
 
-// A half disc of radius r on the floor (y = 0), centred at x = cx: its arc in n points from
-// (cx + r, 0) to (cx - r, 0), its base along the floor, in a points file; its path.
-std::string half_disc_points_file(const std::string& name, double cx, double r, int n = 181) {
+// A points file of `points` in the test's temporary folder; its path.
+std::string points_file(const std::string& name, const std::vector<std::pair<double, double>>& points) {
   const fs::path path = fs::path(testing::TempDir()) / (name + "_" + std::to_string(::getpid()) + ".dat");
   std::ofstream out(path);
   out.precision(17);
+  for (const auto& [x, y] : points) out << x << " " << y << "\n";
+  return path.string();
+}
+
+// A half disc of radius r on the floor (y = 0), centred at x = cx: its arc in n points from
+// (cx + r, 0) to (cx - r, 0), its base along the floor, in a points file; its path.
+std::string half_disc_points_file(const std::string& name, double cx, double r, int n = 181) {
+  std::vector<std::pair<double, double>> arc;
   for (int k = 0; k < n; ++k) {
     const double angle = M_PI * k / (n - 1);
-    out << cx + r * std::cos(angle) << " " << r * std::sin(angle) << "\n";  // (sin(pi) is 1e-16, not 0)
+    arc.emplace_back(cx + r * std::cos(angle), r * std::sin(angle));  // (sin(pi) is 1e-16, not 0)
   }
-  return path.string();
+  return points_file(name, arc);
 }
 
 // An edge on a side of the domain is no surface: the base of a half disc on the floor. A point
@@ -254,9 +261,9 @@ TEST(SignedDistance, AnEdgeOnASideOfTheDomainIsNoSurface) {
 }
 
 // The nodes on a face along a grid line are inside the body, with the face's normal, all of them;
-// a node on a corner, with the mean of its faces' normals (one face's normal would stop the gas
-// at the corner moving along the other: over the step's corner, which left a near-vacuum behind
-// it). Before, the normal came from the node's difference to its nearest point, round-off for a
+// a node on a corner with both faces' normals (one face's normal alone would stop the gas at the
+// corner moving along the other: over the step's corner, which left a near-vacuum behind it), its
+// gas shared between them (GridConditions.SurfaceNodesKeepTheGasFromEnteringOnly). Before, the normal came from the node's difference to its nearest point, round-off for a
 // node on the face ((0, 1) or (0, -1) for nodes on the step's front face), and the sign of the
 // distance with it (some nodes on the step's top inside, some out).
 TEST(SignedDistance, NodesOnAFaceAlongAGridLineAreInsideWithTheFacesNormal) {
@@ -268,9 +275,14 @@ TEST(SignedDistance, NodesOnAFaceAlongAGridLineAreInsideWithTheFacesNormal) {
   auto nodes = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grid.obstacle_nodes);
   auto normals = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grid.obstacle_normals);
   const GridGeometry& g = slab.geometry;  // spacing 0.1
-  std::map<std::pair<index_t, index_t>, std::pair<double, double>> normal_at;
-  for (size_t k = 0; k < nodes.extent(0); ++k)
-    normal_at[{g.node_i_of(nodes(k)), g.node_j_of(nodes(k))}] = {normals(k, 0), normals(k, 1)};
+  std::map<std::pair<index_t, index_t>, std::pair<double, double>> normal_at, second_normal_at;
+  std::map<std::pair<index_t, index_t>, double> placement_at;
+  for (size_t k = 0; k < nodes.extent(0); ++k) {
+    const std::pair<index_t, index_t> at{g.node_i_of(nodes(k)), g.node_j_of(nodes(k))};
+    normal_at[at] = {normals(k, ObstacleGrid::normal_x_column), normals(k, ObstacleGrid::normal_y_column)};
+    second_normal_at[at] = {normals(k, ObstacleGrid::second_normal_x_column), normals(k, ObstacleGrid::second_normal_y_column)};
+    placement_at[at] = normals(k, ObstacleGrid::placement_column);
+  }
   auto line = [](double at, double origin, double spacing) { return static_cast<index_t>(std::lround((at - origin) / spacing)); };
   const index_t front = line(0.6, g.origin_x, g.spacing_x), back = line(2.3, g.origin_x, g.spacing_x);
   const index_t floor = line(0, g.origin_y, g.spacing_y), top = line(0.7, g.origin_y, g.spacing_y);
@@ -282,8 +294,15 @@ TEST(SignedDistance, NodesOnAFaceAlongAGridLineAreInsideWithTheFacesNormal) {
   };
   for (index_t j = floor; j < top; ++j) expect_normal(front, j, -1, 0), expect_normal(back, j, 1, 0);
   for (index_t i = front + 1; i < back; ++i) expect_normal(i, top, 0, 1);
-  expect_normal(front, top, -std::sqrt(0.5), std::sqrt(0.5));  // the corners
-  expect_normal(back, top, std::sqrt(0.5), std::sqrt(0.5));
+  for (index_t i = front + 1; i < back; ++i) EXPECT_EQ(placement_at[std::make_pair(i, top)], ObstacleGrid::on_face) << i;
+  // The corners: both faces' normals, in either order.
+  for (const auto& [i, side_x] : {std::pair<index_t, double>{front, -1}, {back, 1}}) {
+    EXPECT_EQ(placement_at[std::make_pair(i, top)], ObstacleGrid::on_convex_vertex) << i;
+    std::set<std::pair<long, long>> faces{
+        {std::lround(normal_at[{i, top}].first), std::lround(normal_at[{i, top}].second)},
+        {std::lround(second_normal_at[{i, top}].first), std::lround(second_normal_at[{i, top}].second)}};
+    EXPECT_EQ(faces, (std::set<std::pair<long, long>>{{std::lround(side_x), 0}, {0, 1}})) << i;
+  }
 }
 
 class GeometryErrors : public ::testing::Test {
@@ -904,13 +923,14 @@ TEST(GridConditions, ANodeUnderTwoSidesTakesBothConditionsInTheSidesOrder) {
 // The grid conditions on the obstacle nodes of the small tunnel with `obstacles` (a JSON list),
 // with momentum and force in every direction, so that about half the nodes' normal parts point
 // out: on a node inside, no normal momentum or force is left, outward as well as inward (the
-// paper's eqs. 21-22 keep the outward part); on a node on the surface, only the inward part goes
-// (eqs. 21-22); the tangential parts stay as they were; the force on the body is the normal force
-// removed, summed over its nodes. What it saw: the obstacle nodes, those on the surface, the
-// normal parts that pointed out, and those kept.
+// paper's eqs. 21-22 keep the outward part); on a node on a face, only the inward part goes
+// (eqs. 21-22); the tangential parts stay as they were; on a node on a convex vertex, each face's
+// inward part of the share of the node's gas beside it; the force on the body is what was removed
+// of the force, summed over its nodes. What it saw: the obstacle nodes, those on a face and on a
+// convex vertex, the normal parts that pointed out on a face, and those kept.
 struct ObstacleNodesSeen {
   index_t nodes = 0;
-  int on_surface = 0, outward = 0, kept_outward = 0;
+  int on_face = 0, on_convex_vertex = 0, outward = 0, kept_outward = 0;
 };
 ObstacleNodesSeen expect_obstacle_conditions(const std::string& obstacles) {
   const CaseConfig config = tunnel_config(R"(, "obstacles": )" + obstacles);
@@ -934,20 +954,30 @@ ObstacleNodesSeen expect_obstacle_conditions(const std::string& obstacles) {
   double removed_x = 0, removed_y = 0;
   for (index_t k = 0; k < seen.nodes; ++k) {
     const index_t node = nodes(k);
-    const double nx = normals(k, 0), ny = normals(k, 1);
-    const bool surface = normals(k, ObstacleGrid::on_surface_column) > 0;
-    seen.on_surface += surface;
+    const double nx = normals(k, ObstacleGrid::normal_x_column), ny = normals(k, ObstacleGrid::normal_y_column);
+    const double placement = normals(k, ObstacleGrid::placement_column);
+    seen.on_face += placement == ObstacleGrid::on_face;
+    seen.on_convex_vertex += placement == ObstacleGrid::on_convex_vertex;
     for (const int column : {int(GridFields::momentum_x), int(GridFields::force_x)}) {
-      const double before_n = initial(node, column) * nx + initial(node, column + 1) * ny;
-      const double before_t = -initial(node, column) * ny + initial(node, column + 1) * nx;
-      const double after_n = after(node, column) * nx + after(node, column + 1) * ny;
-      const double after_t = -after(node, column) * ny + after(node, column + 1) * nx;
-      const bool kept = surface && before_n > 0;
-      seen.outward += before_n > 0;
-      seen.kept_outward += kept;
-      EXPECT_NEAR(after_n, kept ? before_n : 0, 1e-14) << "node " << node << ", column " << column;
-      EXPECT_NEAR(after_t, before_t, 1e-14) << "node " << node << ", column " << column;
-      if (column == GridFields::force_x && !kept) removed_x += before_n * nx, removed_y += before_n * ny;
+      const double before_x = initial(node, column), before_y = initial(node, column + 1);
+      double expected_x = before_x, expected_y = before_y;
+      if (placement == ObstacleGrid::on_convex_vertex) {
+        const double share = normals(k, ObstacleGrid::face_share_column);
+        const double mx = normals(k, ObstacleGrid::second_normal_x_column);
+        const double my = normals(k, ObstacleGrid::second_normal_y_column);
+        for (const auto& [fx, fy] : {std::pair<double, double>{nx, ny}, std::pair<double, double>{mx, my}}) {
+          const double before_f = before_x * fx + before_y * fy;
+          if (before_f < 0) expected_x -= share * before_f * fx, expected_y -= share * before_f * fy;
+        }
+      } else {
+        const double before_n = before_x * nx + before_y * ny;
+        const bool kept = placement == ObstacleGrid::on_face && before_n > 0;
+        if (placement == ObstacleGrid::on_face) seen.outward += before_n > 0, seen.kept_outward += kept;
+        if (!kept) expected_x -= before_n * nx, expected_y -= before_n * ny;
+      }
+      EXPECT_NEAR(after(node, column), expected_x, 1e-14) << "node " << node << ", column " << column;
+      EXPECT_NEAR(after(node, column + 1), expected_y, 1e-14) << "node " << node << ", column " << column;
+      if (column == GridFields::force_x) removed_x += before_x - expected_x, removed_y += before_y - expected_y;
     }
   }
   EXPECT_EQ(forces.x.size(), 1u);
@@ -962,17 +992,82 @@ ObstacleNodesSeen expect_obstacle_conditions(const std::string& obstacles) {
 TEST(GridConditions, ObstacleNodesKeepNoNormalMomentumOrForceAndTheBodyTakesTheForceRemoved) {
   const ObstacleNodesSeen seen = expect_obstacle_conditions(R"([{"type": "circle", "centre": [2, 1], "radius": 0.25}])");
   ASSERT_GT(seen.nodes, 20);
-  EXPECT_EQ(seen.on_surface, 0);
-  EXPECT_GT(seen.outward, seen.nodes / 4);  // outward parts were there to remove
+  EXPECT_EQ(seen.on_face + seen.on_convex_vertex, 0);
 }
 
-// A rectangle with its faces along grid lines: on its faces' nodes only the inward part goes.
+// A rectangle with its faces along grid lines: on its faces' nodes only the inward part goes; on
+// its corners, each face's inward part of a third of the node's gas (a right angle: the quarter
+// turn beside each face of the three quarters around the corner).
 TEST(GridConditions, SurfaceNodesKeepTheGasFromEnteringOnly) {
   const ObstacleNodesSeen seen = expect_obstacle_conditions(R"([{"type": "rectangle", "x": [1, 2.5], "y": [0.5, 1.2]}])");
-  // The faces' nodes (x from 1 to 2.5, y from 0.5 to 1.2, spacing 0.1): 16 + 16 + 8 + 8 less
-  // the 4 corners counted twice; and outward parts there to keep.
-  EXPECT_EQ(seen.on_surface, 44);
+  // The faces' nodes (x from 1 to 2.5, y from 0.5 to 1.2, spacing 0.1): 14 + 14 + 6 + 6 between
+  // the 4 corners.
+  EXPECT_EQ(seen.on_face, 40);
+  EXPECT_EQ(seen.on_convex_vertex, 4);
   EXPECT_GT(seen.kept_outward, 10);
+}
+
+// A diamond aerofoil (half-angle 10 degrees) whose leading and trailing edges are nodes, in a
+// stream along +x: the leading edge's node lets the gas part along its faces, losing only the
+// inward parts of the two shares beside the faces (2 x 90/340 x sin^2 10 deg of its x momentum),
+// where the faces' mean normal, (-1, 0), stopped it; a concave vertex keeps the mean normal.
+TEST(GridConditions, ALeadingEdgeNodeLetsTheGasPartAlongItsFaces) {
+  const double t = std::tan(10 * std::acos(-1.0) / 180);
+  const std::string diamond = R"([{"type": "polygon", "file": ")" +
+                              points_file("diamond", {{1, 1}, {1.5, 1 - 0.5 * t}, {2, 1}, {1.5, 1 + 0.5 * t}}) + R"("}])";
+  const ObstacleNodesSeen seen = expect_obstacle_conditions(diamond);
+  EXPECT_EQ(seen.on_convex_vertex, 2);  // the edges; the crests are no nodes
+  const CaseConfig config = tunnel_config(R"(, "obstacles": )" + diamond);
+  const GridSlab slab = make_grid_slab(config.domain, 0, 0, 40);
+  const SlabState slab_state(config, slab);
+  const ObstacleGrid& grid = slab_state.obstacles();
+  const auto nodes = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grid.obstacle_nodes);
+  const auto normals = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grid.obstacle_normals);
+  const GridGeometry& g = slab.geometry;  // spacing 0.1
+  const index_t leading = g.node_index(static_cast<index_t>(std::lround((1 - g.origin_x) / g.spacing_x)),
+                                       static_cast<index_t>(std::lround((1 - g.origin_y) / g.spacing_y)));
+  index_t k = 0;
+  while (k < grid.num_obstacle_nodes() && nodes(k) != leading) ++k;
+  ASSERT_LT(k, grid.num_obstacle_nodes());
+  ASSERT_EQ(normals(k, ObstacleGrid::placement_column), ObstacleGrid::on_convex_vertex);
+  EXPECT_NEAR(normals(k, ObstacleGrid::face_share_column), 90.0 / 340.0, 1e-12);
+  const NodeFieldsView state = slab_state.fields().state;
+  const auto values = Kokkos::create_mirror(state);
+  Kokkos::deep_copy(values, 0.0);
+  values(leading, GridFields::mass) = 1;
+  values(leading, GridFields::momentum_x) = 1;
+  Kokkos::deep_copy(state, values);
+  slab_state.grid_boundaries().apply_to_momentum_and_force(state, nullptr);
+  Kokkos::deep_copy(values, state);
+  const double s = std::sin(10 * std::acos(-1.0) / 180);
+  EXPECT_NEAR(values(leading, GridFields::momentum_x), 1 - 2 * 90.0 / 340.0 * s * s, 1e-12);
+  EXPECT_NEAR(values(leading, GridFields::momentum_y), 0, 1e-12);
+}
+
+// A chevron's reflex vertex (the body's angle there above 180 degrees) on a node is on a face
+// with the mean of its faces' normals; its convex vertices are convex vertices.
+TEST(SignedDistance, OnlyConvexVerticesSplitTheirNodesGas) {
+  const CaseConfig config = tunnel_config(R"(, "obstacles": [{"type": "polygon", "file": ")" +
+                                          points_file("chevron", {{1, 0.5}, {2, 0.5}, {1.5, 1}, {2, 1.5}, {1, 1.5}}) +
+                                          R"("}])");
+  const GridSlab slab = make_grid_slab(config.domain, 0, 0, 40);
+  const ObstacleGrid grid = make_obstacle_grid(config.obstacles, slab, config.boundaries);
+  const auto nodes = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grid.obstacle_nodes);
+  const auto normals = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grid.obstacle_normals);
+  const GridGeometry& g = slab.geometry;
+  auto placement_at = [&](double x, double y) {
+    const index_t node = g.node_index(static_cast<index_t>(std::lround((x - g.origin_x) / g.spacing_x)),
+                                      static_cast<index_t>(std::lround((y - g.origin_y) / g.spacing_y)));
+    for (index_t k = 0; k < grid.num_obstacle_nodes(); ++k)
+      if (nodes(k) == node) return std::make_tuple(double(normals(k, ObstacleGrid::placement_column)), double(normals(k, 0)), double(normals(k, 1)));
+    return std::make_tuple(-1.0, 0.0, 0.0);
+  };
+  for (const auto& [x, y] : {std::pair<double, double>{1, 0.5}, {2, 0.5}, {2, 1.5}, {1, 1.5}})
+    EXPECT_EQ(std::get<0>(placement_at(x, y)), ObstacleGrid::on_convex_vertex) << x << ", " << y;
+  const auto [reflex, nx, ny] = placement_at(1.5, 1);
+  EXPECT_EQ(reflex, ObstacleGrid::on_face);
+  EXPECT_NEAR(nx, 1, 1e-12);  // the mean of (1, -1) / sqrt 2 and (1, 1) / sqrt 2
+  EXPECT_NEAR(ny, 0, 1e-12);
 }
 
 // A slab cut through an obstacle holds the obstacle's nodes on the far side of the cut as ghost
