@@ -293,6 +293,22 @@ def plot_fields(args):
     print("\n".join(written))
 
 
+def nearest_edges(points, outline, usable=None):
+    """For each of `points` (n x 2), its nearest edge of the closed polygon `outline` (edge k from
+    vertex k to k + 1; among the edges where `usable` is True, if given): the edge's index, where
+    the nearest point lies along it (0 at its start, 1 at its end) and the distance to it."""
+    a = outline
+    edge = np.roll(outline, -1, axis=0) - a
+    offset = points[:, None, :] - a[None]
+    along = np.clip((offset * edge[None]).sum(axis=2) / (edge ** 2).sum(axis=1)[None], 0, 1)
+    distance = np.hypot(*(offset - along[..., None] * edge[None]).transpose(2, 0, 1))
+    if usable is not None:
+        distance[:, ~np.asarray(usable)] = np.inf
+    which = distance.argmin(axis=1)
+    rows = np.arange(len(points))
+    return which, along[rows, which], distance[rows, which]
+
+
 def surface_pressure(args):
     """The pressure coefficient of the particles next to an obstacle's surface, along it: for a
     polygon against x / c (c its extent along the free stream), upper and lower sides apart; for a
@@ -318,16 +334,10 @@ def surface_pressure(args):
     near = (s.x > lo[0]) & (s.x < hi[0]) & (s.y > lo[1]) & (s.y < hi[1])
     points = np.column_stack([s.x[near], s.y[near]])
     pressure = s.particles["pressure"][near]
-    # Nearest point of each edge, for every candidate particle.
-    edge = b - a
-    t = np.clip(((points[:, None, :] - a[None]) * edge[None]).sum(axis=2) / (edge ** 2).sum(axis=1)[None], 0, 1)
-    nearest = a[None] + t[..., None] * edge[None]
-    distance = np.hypot(*(points[:, None, :] - nearest).transpose(2, 0, 1))
-    which = distance.argmin(axis=1)
-    d = distance[np.arange(len(points)), which]
+    which, along, d = nearest_edges(points, outline)
     band = d < args.band * h
     cp = (pressure[band] - p_inf) / q
-    foot = nearest[np.arange(len(points)), which][band]
+    foot = (a[which] + along[:, None] * (b - a)[which])[band]
     fig, ax = plt.subplots(figsize=(7, 4.5))
     if s.obstacle_is_circle[args.obstacle]:
         centre = outline.mean(axis=0)
@@ -630,12 +640,11 @@ def shock_expansion_faces(outline, on_side, flow, mach, pressure, gamma):
     Prandtl-Meyer expansion centred on the vertex where it turns away (exact for the faces of a
     diamond or a ridge: straight faces, waves from one vertex only). Faces on a side of the domain
     (`on_side(k)`, edge k from vertex k to k + 1) are no surface and are left out. Returns, per face
-    reached: (edge, side name, turning in degrees, Mach number, pressure, the first distance along
-    the face, from its start, at which the waves from its start vertex are `clear` away from it:
-    the shock's or the expansion's last Mach line's distance from the face grows as
-    distance * tan(angle), and whether the flow runs along the edge backwards, from vertex k + 1 to
-    k); a face behind a detached shock, or beyond an expansion to vacuum,
-    ends its side."""
+    reached: (edge, side name, turning in degrees, Mach number, pressure, the angle between the face
+    and the last wave from its upstream vertex (the shock, or the expansion's last Mach line: at a
+    distance x along the face it lies x tan(angle) off it), and whether the flow runs along the edge
+    backwards, from vertex k + 1 to k); a face behind a detached shock, or beyond an expansion to
+    vacuum, ends its side."""
     n = len(outline)
     along = outline @ flow
     leading, trailing = int(along.argmin()), int(along.argmax())
@@ -708,23 +717,17 @@ def shock_expansion(args):
     faces = shock_expansion_faces(outline, on_side, flow, mach, float(s.free_stream["pressure"]), g)
     if not faces:
         sys.exit(f"mpmflow_plot: error: {s.path}: no face of obstacle {args.obstacle} for shock-expansion theory")
-    a = outline
-    edge = np.roll(outline, -1, axis=0) - a
+    edge = np.roll(outline, -1, axis=0) - outline
     length = np.hypot(*edge.T)
     points = np.column_stack([s.x, s.y])
-    # Nearest surface edge of every particle near the obstacle, its foot and distance.
+    # The nearest surface edge of every particle near the obstacle, how far along it and from it.
     lo, hi = outline.min(axis=0) - (args.band[1] + 1) * h, outline.max(axis=0) + (args.band[1] + 1) * h
     near = np.all((points > lo) & (points < hi), axis=1)
-    surface = np.array([not on_side(k) for k in range(len(outline))])
-    rel = points[near][:, None, :] - a[None]
-    foot = np.clip((rel * edge[None]).sum(axis=2) / (length ** 2)[None], 0, 1)
-    distance = np.hypot(*(rel - foot[..., None] * edge[None]).transpose(2, 0, 1))
-    distance[:, ~surface] = np.inf
-    which = distance.argmin(axis=1)
-    rows = np.arange(len(which))
-    along, d = foot[rows, which] * length[which], distance[rows, which]
+    which, along, d = nearest_edges(points[near], outline, [not on_side(k) for k in range(len(outline))])
+    along = along * length[which]
     # On the gas's side of the face: along its right-hand normal, which points out.
-    outward = rel[rows, which, 0] * edge[which, 1] - rel[rows, which, 1] * edge[which, 0] > 0
+    offset = points[near] - outline[which]
+    outward = offset[:, 0] * edge[which, 1] - offset[:, 1] * edge[which, 0] > 0
     pressure = s.particles["pressure"][near]
     print(f"{s.case} t = {s.time:g}: Mach {mach:.3f}, obstacle {args.obstacle}, h = {h:g}, "
           f"particles {args.band[0]:g} to {args.band[1]:g} cells from each face")
