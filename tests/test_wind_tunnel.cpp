@@ -263,9 +263,10 @@ TEST(SignedDistance, AnEdgeOnASideOfTheDomainIsNoSurface) {
 // The nodes on a face along a grid line are inside the body, with the face's normal, all of them;
 // a node on a corner with both faces' normals (one face's normal alone would stop the gas at the
 // corner moving along the other: over the step's corner, which left a near-vacuum behind it), its
-// gas shared between them (GridConditions.SurfaceNodesKeepTheGasFromEnteringOnly). Before, the normal came from the node's difference to its nearest point, round-off for a
-// node on the face ((0, 1) or (0, -1) for nodes on the step's front face), and the sign of the
-// distance with it (some nodes on the step's top inside, some out).
+// gas shared between them (GridConditions.SurfaceNodesKeepTheGasFromEnteringOnly). Before, the
+// normal came from the node's difference to its nearest point, round-off for a node on the face
+// ((0, 1) or (0, -1) for nodes on the step's front face), and the sign of the distance with it
+// (some nodes on the step's top inside, some out).
 TEST(SignedDistance, NodesOnAFaceAlongAGridLineAreInsideWithTheFacesNormal) {
   const CaseConfig config = parse_case(
       tunnel_case(kTunnelSides, kFreeStream + R"(, "obstacles": [{"type": "rectangle", "x": [0.6, 2.3], "y": [0, 0.7]}])"),
