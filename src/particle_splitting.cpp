@@ -9,40 +9,44 @@
 namespace mpmflow {
 namespace {
 
-// Whether particle p splits: along which axis (split_axis), and where its halves would lie.
+// Whether particle p splits: along which axis (split_axis), and where its pieces would lie.
 struct SplitRule {
   ParticleBoundaries boundaries;
   real_t initial_half_x, initial_half_y, initial_volume;
 
-  // The axis (split_axis) and the half-length of the domain along it.
-  KOKKOS_INLINE_FUNCTION int axis(const ParticleState& pt, index_t p, real_t& half_length) const {
-    const int a = split_axis(pt.mass(p) / pt.density(p), initial_volume, pt.domain_stretch_x(p), pt.domain_stretch_y(p));
-    half_length = a == 0 ? initial_half_x * pt.domain_stretch_x(p) : initial_half_y * pt.domain_stretch_y(p);
-    return a;
+  KOKKOS_INLINE_FUNCTION int axis(const ParticleState& pt, index_t p) const {
+    return split_axis(pt.mass(p) / pt.density(p), initial_volume, pt.domain_stretch_x(p), pt.domain_stretch_y(p));
   }
-  // The centres of the two halves (the parent's and the new one's), kept in the domain.
-  KOKKOS_INLINE_FUNCTION void halves(const ParticleState& pt, index_t p, int a, real_t half_length, real_t& x0,
-                                     real_t& y0, real_t& x1, real_t& y1) const {
-    x0 = x1 = pt.position_x(p);
-    y0 = y1 = pt.position_y(p);
-    (a == 0 ? x0 : y0) -= half_length / 2;
-    (a == 0 ? x1 : y1) += half_length / 2;
-    boundaries.domain.clamp(x0, y0);
-    boundaries.domain.clamp(x1, y1);
+  // The centres of the pieces of a split along `a` (split_pieces(a) of them; the first the parent's),
+  // each the centre of its share of the parent's domain, kept in the domain.
+  KOKKOS_INLINE_FUNCTION void pieces(const ParticleState& pt, index_t p, int a, real_t (&x)[4], real_t (&y)[4]) const {
+    const real_t quarter_x = initial_half_x * pt.domain_stretch_x(p) / 2;
+    const real_t quarter_y = initial_half_y * pt.domain_stretch_y(p) / 2;
+    const real_t offset_x = a == 1 ? real_t(0) : quarter_x, offset_y = a == 0 ? real_t(0) : quarter_y;
+    const int n = split_pieces(a);
+    for (int k = 0; k < n; ++k) {
+      // Along one axis: -, +. Along both: (-, -), (+, -), (-, +), (+, +).
+      const int along_x = a == 1 ? 0 : (k % 2 == 0 ? -1 : 1);
+      const int along_y = a == 0 ? 0 : a == 1 ? (k % 2 == 0 ? -1 : 1) : (k < 2 ? -1 : 1);
+      x[k] = pt.position_x(p) + along_x * offset_x;
+      y[k] = pt.position_y(p) + along_y * offset_y;
+      boundaries.domain.clamp(x[k], y[k]);
+    }
   }
-  // Splits where the domain is too wide, unless a half would lie in an obstacle.
+  // Splits where the domain is too wide, unless a piece would lie in an obstacle.
   KOKKOS_INLINE_FUNCTION bool splits(const ParticleState& pt, index_t p) const {
     // Most particles are far below twice the initial volume: told so without the division (a
     // twentieth below the threshold, far more than round-off: exactly split_axis's answer).
     const real_t density = pt.density(p);
     if (density > 0 && pt.mass(p) < real_t(1.9) * initial_volume * density) return false;
-    real_t half_length;
-    const int a = axis(pt, p, half_length);
+    const int a = axis(pt, p);
     if (a < 0) return false;
     if (!boundaries.has_obstacles) return true;
-    real_t x0, y0, x1, y1;
-    halves(pt, p, a, half_length, x0, y0, x1, y1);
-    return boundaries.obstacles(x0, y0).distance > 0 && boundaries.obstacles(x1, y1).distance > 0;
+    real_t x[4], y[4];
+    pieces(pt, p, a, x, y);
+    for (int k = 0; k < split_pieces(a); ++k)
+      if (!(boundaries.obstacles(x[k], y[k]).distance > 0)) return false;
+    return true;
   }
 };
 
@@ -76,61 +80,83 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
   const long long num_global = context.sum(static_cast<long long>(num_local));
   if (num_global == 0) return 0;
 
-  // The halves' ids: -1 - 2 n and -2 - 2 n, n = splits so far + the rank of their parent's id among
-  // all parents.
-  // (In a View kept from step to step: splitting runs every step.)
-  const size_t num_new = static_cast<size_t>(num_local);
-  new_id_.hold(num_new, "split_new_id");
-  const ParticleIdView new_id = new_id_.part(num_new);
+  // The pieces' ids: -1 - 2 n and below, n = splits so far + the rank of their parent's id among all
+  // parents, a parent splitting in four counted twice; and where each parent's new pieces go among
+  // the appended particles.
+  // (In Views kept from step to step: splitting runs every step.)
+  const size_t num_parents = static_cast<size_t>(num_local);
+  new_id_.hold(num_parents, "split_new_id");
+  first_new_.hold(num_parents, "split_first_new");
+  const ParticleIdView new_id = new_id_.part(num_parents);
+  const IndexView first_new = first_new_.part(num_parents);
+  const IndexView parent = parent_;
+  index_t num_new = 0;
+  long long splits_made = 0;
   {
     const ParticleIdView id = particles.id;
-    const IndexView parent = parent_;
+    const ParticleState before = particles;
     Kokkos::parallel_for(
-        "split_parent_ids", Kokkos::RangePolicy<ExecutionSpace>(0, num_local),
-        KOKKOS_LAMBDA(const index_t k) { new_id(k) = id(parent(k)); });
-    const auto host = new_id_.host_part(num_new);
-    Kokkos::deep_copy(host, new_id);
-    std::vector<long long> local(host.data(), host.data() + num_local);
+        "split_parent_ids", Kokkos::RangePolicy<ExecutionSpace>(0, num_local), KOKKOS_LAMBDA(const index_t k) {
+          new_id(k) = id(parent(k));
+          first_new(k) = split_pieces(rule.axis(before, parent(k))) - 1;  // its new pieces, for now
+        });
+    const auto host_id = new_id_.host_part(num_parents);
+    const auto host_first = first_new_.host_part(num_parents);
+    Kokkos::deep_copy(host_id, new_id);
+    Kokkos::deep_copy(host_first, first_new);
+    std::vector<long long> local;
+    local.reserve(2 * num_parents);
+    for (size_t k = 0; k < num_parents; ++k) {
+      local.push_back(host_id(k));
+      if (host_first(k) == 3) local.push_back(host_id(k));  // a split in four numbers two splits
+    }
     std::vector<long long> all = context.all_gather(local);
     std::sort(all.begin(), all.end());
-    for (index_t k = 0; k < num_local; ++k) {
-      const long long rank = std::lower_bound(all.begin(), all.end(), local[static_cast<size_t>(k)]) - all.begin();
-      host(k) = -1 - 2 * (splits_ + rank);
+    for (size_t k = 0; k < num_parents; ++k) {
+      const long long rank = std::lower_bound(all.begin(), all.end(), host_id(k)) - all.begin();
+      host_id(k) = -1 - 2 * (splits_ + rank);
+      const index_t pieces_added = host_first(k);
+      host_first(k) = num_new;
+      num_new += pieces_added;
     }
-    Kokkos::deep_copy(new_id, host);
+    Kokkos::deep_copy(new_id, host_id);
+    Kokkos::deep_copy(first_new, host_first);
+    splits_made = static_cast<long long>(all.size());
+    splits_ += splits_made;
   }
 
-  // Append the halves as copies of their parents, then halve mass and domain and place both.
-  particles.grow_to_hold(count + num_local);
-  particles.count = count + num_local;
-  const IndexView parent = parent_;
-  copy_particles("split_copy", particles, IndexView(), count, parent, num_local);
+  // Append the new pieces as copies of their parents, then share out mass and domain and place them.
+  new_source_.hold(static_cast<size_t>(num_new), "split_new_source");
+  const IndexView new_source = new_source_.part(static_cast<size_t>(num_new));
+  Kokkos::parallel_for(
+      "split_sources", Kokkos::RangePolicy<ExecutionSpace>(0, num_local), KOKKOS_LAMBDA(const index_t k) {
+        const index_t end = k + 1 < num_local ? first_new(k + 1) : num_new;
+        for (index_t j = first_new(k); j < end; ++j) new_source(j) = parent(k);
+      });
+  particles.grow_to_hold(count + num_new);
+  particles.count = count + num_new;
+  copy_particles("split_copy", particles, IndexView(), count, new_source, num_new);
   const ParticleState pt = particles;
   Kokkos::parallel_for(
-      "split_halves", Kokkos::RangePolicy<ExecutionSpace>(0, num_local), KOKKOS_LAMBDA(const index_t k) {
-        const index_t p = parent(k), q = count + k;
-        real_t half_length;
-        const int a = rule.axis(pt, p, half_length);
-        real_t x0, y0, x1, y1;
-        rule.halves(pt, p, a, half_length, x0, y0, x1, y1);
-        pt.position_x(p) = x0, pt.position_y(p) = y0;
-        pt.position_x(q) = x1, pt.position_y(q) = y1;
-        pt.cell(p) = rule.boundaries.grid.cell_of(x0, y0);
-        pt.cell(q) = rule.boundaries.grid.cell_of(x1, y1);
-        pt.mass(p) *= real_t(0.5);
-        pt.mass(q) = pt.mass(p);
-        if (a == 0) {
-          pt.domain_stretch_x(p) *= real_t(0.5);
-          pt.domain_stretch_x(q) = pt.domain_stretch_x(p);
-        } else {
-          pt.domain_stretch_y(p) *= real_t(0.5);
-          pt.domain_stretch_y(q) = pt.domain_stretch_y(p);
+      "split_pieces", Kokkos::RangePolicy<ExecutionSpace>(0, num_local), KOKKOS_LAMBDA(const index_t k) {
+        const index_t p = parent(k);
+        const int a = rule.axis(pt, p), n = split_pieces(a);
+        real_t x[4], y[4];
+        rule.pieces(pt, p, a, x, y);
+        const real_t mass = pt.mass(p) / n;
+        const real_t stretch_x = a == 1 ? pt.domain_stretch_x(p) : pt.domain_stretch_x(p) * real_t(0.5);
+        const real_t stretch_y = a == 0 ? pt.domain_stretch_y(p) : pt.domain_stretch_y(p) * real_t(0.5);
+        for (int j = 0; j < n; ++j) {
+          const index_t q = j == 0 ? p : count + first_new(k) + j - 1;
+          pt.position_x(q) = x[j], pt.position_y(q) = y[j];
+          pt.cell(q) = rule.boundaries.grid.cell_of(x[j], y[j]);
+          pt.mass(q) = mass;
+          pt.domain_stretch_x(q) = stretch_x;
+          pt.domain_stretch_y(q) = stretch_y;
+          pt.id(q) = new_id(k) - j;
         }
-        pt.id(p) = new_id(k);
-        pt.id(q) = new_id(k) - 1;
       });
-  splits_ += num_global;
-  return num_global;
+  return splits_made;
 }
 
 }  // namespace mpmflow

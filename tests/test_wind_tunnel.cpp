@@ -1192,6 +1192,82 @@ TEST(ParticleRules, ObstaclesTakeTheInwardVelocityAndEachBodyItsOwnImpulse) {
   EXPECT_EQ(changed, 0);
 }
 
+// ---- Splitting ----------------------------------------------------------------------------------
+
+TEST(ParticleSplitting, AlongTheAxisStretchedMoreOrBothWhereTheStretchesAgree) {
+  EXPECT_EQ(split_axis(2.0, 1.0, 1.0, 1.0), -1);  // not yet doubled
+  EXPECT_EQ(split_axis(2.5, 1.0, 1.3, 1.0), 0);
+  EXPECT_EQ(split_axis(2.5, 1.0, 1.0, 1.3), 1);
+  EXPECT_EQ(split_axis(2.5, 1.0, 1.0, 1.0), split_both_axes);
+  // Round-off apart: still alike (a particle on a mirror line whose sums ran in another order).
+  EXPECT_EQ(split_axis(2.5, 1.0, 1.3 * (1 + 1e-12), 1.3), split_both_axes);
+  EXPECT_EQ(split_axis(2.5, 1.0, 1.3, 1.3 * (1 + 1e-12)), split_both_axes);
+  EXPECT_EQ(split_axis(2.5, 1.0, 1.3 * (1 + 1e-4), 1.3), 0);
+  EXPECT_EQ(split_pieces(0), 2);
+  EXPECT_EQ(split_pieces(split_both_axes), 4);
+}
+
+// A particle stretched alike along both axes splits in four quarters, the mirror image of itself
+// about its own diagonals; one stretched more along x in two halves along x. Ids: the parents in
+// id order, a split in four taking two split numbers.
+TEST(ParticleSplitting, AParticleStretchedAlikeAlongBothAxesSplitsInFourQuarters) {
+  WholeTunnel tunnel(tunnel_config());
+  ParticleState& particles = tunnel.particles;
+  const index_t n = particles.count;
+  auto host = [](const auto& view) { return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view); };
+  auto x = host(particles.position_x), y = host(particles.position_y), density = host(particles.density);
+  auto stretch_x = host(particles.domain_stretch_x), mass = host(particles.mass);
+  const auto id = host(particles.id);
+  // Two particles well inside the tunnel (no clamping to its sides).
+  std::vector<index_t> chosen;
+  for (index_t k = 0; k < n && chosen.size() < 2; ++k)
+    if (x(k) > 1 && x(k) < 3 && y(k) > 0.5 && y(k) < 1.5) chosen.push_back(k);
+  ASSERT_EQ(chosen.size(), 2u);
+  const index_t four = chosen[0], two = chosen[1];
+  density(four) /= 3, density(two) /= 3;
+  stretch_x(two) = 1.5;
+  Kokkos::deep_copy(particles.density, density);
+  Kokkos::deep_copy(particles.domain_stretch_x, stretch_x);
+  const real_t x4 = x(four), y4 = y(four), m4 = mass(four), x2 = x(two), y2 = y(two), m2 = mass(two);
+
+  ParticleSplitting splitting(tunnel.config, tunnel.slab);
+  EXPECT_EQ(splitting.split(particles, tunnel.slab_state.particle_boundaries(), tunnel.slab_state.context()), 3);
+  EXPECT_EQ(splitting.splits(), 3);
+  ASSERT_EQ(particles.count, n + 4);
+  // The ids: the parent with the smaller id numbers first.
+  const bool four_first = id(four) < id(two);
+  const long long first_of_four = four_first ? -1 : -3, first_of_two = four_first ? -5 : -1;
+  const auto after_id = host(particles.id);
+  const auto after_x = host(particles.position_x), after_y = host(particles.position_y);
+  auto after_mass = host(particles.mass), after_sx = host(particles.domain_stretch_x);
+  auto after_sy = host(particles.domain_stretch_y);
+  std::map<long long, index_t> index_of;
+  for (index_t k = 0; k < particles.count; ++k) index_of[after_id(k)] = k;
+  // A placed particle's domain is half of a cell over 2 particles: 0.025; a quarter's centre lies
+  // half of that from the parent's along each axis.
+  const real_t q = 0.0125;
+  const real_t quarter_x[4] = {x4 - q, x4 + q, x4 - q, x4 + q}, quarter_y[4] = {y4 - q, y4 - q, y4 + q, y4 + q};
+  for (int j = 0; j < 4; ++j) {
+    ASSERT_EQ(index_of.count(first_of_four - j), 1u) << first_of_four - j;
+    const index_t k = index_of.at(first_of_four - j);
+    EXPECT_NEAR(after_x(k), quarter_x[j], 1e-15) << j;
+    EXPECT_NEAR(after_y(k), quarter_y[j], 1e-15) << j;
+    EXPECT_DOUBLE_EQ(after_mass(k), m4 / 4);
+    EXPECT_DOUBLE_EQ(after_sx(k), 0.5);
+    EXPECT_DOUBLE_EQ(after_sy(k), 0.5);
+  }
+  const real_t half_x[2] = {x2 - 1.5 * q, x2 + 1.5 * q};
+  for (int j = 0; j < 2; ++j) {
+    ASSERT_EQ(index_of.count(first_of_two - j), 1u) << first_of_two - j;
+    const index_t k = index_of.at(first_of_two - j);
+    EXPECT_NEAR(after_x(k), half_x[j], 1e-15) << j;
+    EXPECT_DOUBLE_EQ(after_y(k), y2);
+    EXPECT_DOUBLE_EQ(after_mass(k), m2 / 2);
+    EXPECT_DOUBLE_EQ(after_sx(k), 0.75);
+    EXPECT_DOUBLE_EQ(after_sy(k), 1.0);
+  }
+}
+
 // ---- Memory at a growth ------------------------------------------------------------------------
 
 // When splitting makes the particle Views grow, each field's old storage goes as its new storage
@@ -1204,10 +1280,12 @@ TEST(ParticleSplitting, GrowingForTheHalvesHoldsNoFieldTwiceButTheOneBeingMoved)
   const index_t n = particles.count;
   ASSERT_EQ(particles.capacity(), n);  // no spare: the halves must grow the Views
   {
-    // Every other particle at three times its placed volume: it splits.
+    // Every other particle at three times its placed volume, stretched along x: it splits in two.
     auto density = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), particles.density);
-    for (index_t k = 0; k < n; k += 2) density(k) /= 3;
+    auto stretch_x = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), particles.domain_stretch_x);
+    for (index_t k = 0; k < n; k += 2) density(k) /= 3, stretch_x(k) = 1.5;
     Kokkos::deep_copy(particles.density, density);
+    Kokkos::deep_copy(particles.domain_stretch_x, stretch_x);
   }
   const auto bytes_of_fields = [&](long long& total, long long& largest) {
     total = largest = 0;
