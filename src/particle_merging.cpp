@@ -50,6 +50,58 @@ KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, in
 
 }  // namespace
 
+void pair_candidates(std::vector<MergeCandidate> candidates, std::vector<index_t>& keep, std::vector<index_t>& gone) {
+  keep.clear();
+  gone.clear();
+  std::sort(candidates.begin(), candidates.end(), [](const MergeCandidate& a, const MergeCandidate& b) {
+    return a.cell != b.cell ? a.cell < b.cell : a.id < b.id;
+  });
+  struct Pair {
+    real_t cost;
+    size_t first, second;  // within the cell, in id order: first has the smaller id
+  };
+  std::vector<Pair> pairs;
+  std::vector<char> taken;
+  std::vector<int> claims;  // a level's pairs of free particles that claim each particle
+  for (size_t begin = 0, end = 0; begin < candidates.size(); begin = end) {
+    end = begin + 1;
+    while (end < candidates.size() && candidates[end].cell == candidates[begin].cell) ++end;
+    const size_t count = end - begin;
+    if (count < 2) continue;
+    pairs.clear();
+    for (size_t a = begin; a < end; ++a)
+      for (size_t b = a + 1; b < end; ++b) pairs.push_back({merge_cost(candidates[a], candidates[b]), a, b});
+    // Cheapest first; equal costs in the order of the pair's ids (each pair's first id the smaller,
+    // the candidates being in id order): the same pairs in any particle order.
+    std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+      if (a.cost != b.cost) return a.cost < b.cost;
+      return a.first != b.first ? a.first < b.first : a.second < b.second;
+    });
+    taken.assign(count, 0);
+    claims.assign(count, 0);
+    // Level by level of costs equal to round-off (merge_tie_tolerance), the pairs of free particles
+    // taken, but not two that share a particle: of those none (a particle on a mirror line, its
+    // two nearest a mirror pair, would have merged with one of the two, breaking the symmetry;
+    // they may pair at a dearer level).
+    for (size_t level = 0, level_end = 0; level < pairs.size(); level = level_end) {
+      level_end = level + 1;
+      while (level_end < pairs.size() && pairs[level_end].cost <= pairs[level].cost * (1 + merge_tie_tolerance))
+        ++level_end;
+      const auto free_pair = [&](const Pair& pair) { return !taken[pair.first - begin] && !taken[pair.second - begin]; };
+      for (size_t k = level; k < level_end; ++k)
+        if (free_pair(pairs[k])) ++claims[pairs[k].first - begin], ++claims[pairs[k].second - begin];
+      for (size_t k = level; k < level_end; ++k) {  // (an uncontested pair's particles are claimed once)
+        const Pair& pair = pairs[k];
+        if (claims[pair.first - begin] != 1 || claims[pair.second - begin] != 1 || !free_pair(pair)) continue;
+        taken[pair.first - begin] = taken[pair.second - begin] = 1;
+        keep.push_back(candidates[pair.first].index);
+        gone.push_back(candidates[pair.second].index);
+      }
+      for (size_t k = level; k < level_end; ++k) claims[pairs[k].first - begin] = claims[pairs[k].second - begin] = 0;
+    }
+  }
+}
+
 ParticleMerging::ParticleMerging(const CaseConfig& config, const GridGeometry& geometry)
     // Only split particles merge: without splitting there is nothing to look for.
     : enabled_(config.numerics.merge_particles && config.numerics.split_particles),
@@ -67,37 +119,35 @@ index_t ParticleMerging::merge(ParticleState& particles, const ParticleBoundarie
   const index_t num_candidates = static_cast<index_t>(candidates.extent(0));
   if (num_candidates < 2) return 0;
 
-  // The pairs, on the host: the candidates in (cell, id) order, consecutive ones of a cell paired.
-  // There are few candidates (tiny particles only): their cells, ids and indices go to the host in
-  // one copy, the pairs and the merged-away particles back in one, through buffers kept from step
-  // to step (merging runs every step, and on a GPU an allocation costs more than these kernels).
+  // The pairs, on the host (pair_candidates). There are few candidates (tiny particles only):
+  // their cells, ids, indices, positions and masses go to the host in two copies, the pairs and the
+  // merged-away particles back in one, through buffers kept from step to step (merging runs every
+  // step, and on a GPU an allocation costs more than these kernels).
   const size_t n = static_cast<size_t>(num_candidates);
   candidate_keys_.hold(3 * n, "merge_candidate_keys");
-  const ParticleIdView keys = candidate_keys_.part(3 * n);  // (cell, id, index) a candidate
+  candidate_places_.hold(3 * n, "merge_candidate_places");
+  const ParticleIdView keys = candidate_keys_.part(3 * n);     // (cell, id, index) a candidate
+  const RealView places = candidate_places_.part(3 * n);       // (x, y, mass) a candidate
   Kokkos::parallel_for(
       "merge_candidate_keys", Kokkos::RangePolicy<ExecutionSpace>(0, num_candidates), KOKKOS_LAMBDA(const index_t k) {
         const index_t p = candidates(k);
         keys(3 * k) = pt.cell(p);
         keys(3 * k + 1) = pt.id(p);
         keys(3 * k + 2) = p;
+        places(3 * k) = pt.position_x(p);
+        places(3 * k + 1) = pt.position_y(p);
+        places(3 * k + 2) = pt.mass(p);
       });
   const auto keys_host = candidate_keys_.host_part(3 * n);
+  const auto places_host = candidate_places_.host_part(3 * n);
   Kokkos::deep_copy(keys_host, keys);
-  const auto cell = [&](index_t k) { return keys_host(3 * k); };
-  const auto id = [&](index_t k) { return keys_host(3 * k + 1); };
-  const auto index = [&](index_t k) { return static_cast<index_t>(keys_host(3 * k + 2)); };
-  std::vector<index_t> order(n);
-  std::iota(order.begin(), order.end(), index_t(0));
-  std::sort(order.begin(), order.end(), [&](index_t a, index_t b) {
-    return cell(a) != cell(b) ? cell(a) < cell(b) : id(a) < id(b);
-  });
+  Kokkos::deep_copy(places_host, places);
+  std::vector<MergeCandidate> listed(n);
+  for (size_t k = 0; k < n; ++k)
+    listed[k] = {keys_host(3 * k), keys_host(3 * k + 1), static_cast<index_t>(keys_host(3 * k + 2)),
+                 places_host(3 * k), places_host(3 * k + 1), places_host(3 * k + 2)};
   std::vector<index_t> keep, gone;
-  for (size_t k = 0; k + 1 < order.size(); ++k) {
-    if (cell(order[k]) != cell(order[k + 1])) continue;
-    keep.push_back(index(order[k]));
-    gone.push_back(index(order[k + 1]));
-    ++k;
-  }
+  pair_candidates(listed, keep, gone);
   const index_t num_pairs = static_cast<index_t>(keep.size());
   if (num_pairs == 0) return 0;
 
