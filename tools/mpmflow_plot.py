@@ -52,6 +52,14 @@ python3-numpy (scripts/setup.sh installs them).
       where it turns away; the mean and median pressure of the particles A to B cells off each face
       (default 0.5 to 3), clear of the waves from its vertices; with the --max-* options, exits 1
       when a face's error exceeds the bound.
+  mpmflow_plot.py symmetry OUTPUT_DIR --mirror {diagonal,x,y} [--max-asymmetry F]
+      A run whose case is symmetric (a blast in a square box, a 2D Riemann problem about a
+      diagonal, a body on the tunnel's centre line) against its mirror image, at every output: the
+      largest difference between the grid's density (and pressure) and its mirror image, over
+      the field's largest value. `diagonal`: x and y swapped (a square grid over a square domain);
+      `x`: mirrored about the domain's middle across x; `y`: likewise across y. Also the split
+      particles (negative ids) there are; with --max-asymmetry, exits 1 when an output's
+      difference exceeds F.
   mpmflow_plot.py forces OUTPUT_DIR [--obstacle K] [--last K] [--out DIR] [--min-drag X] [--max-drag Y]
       From diagnostics.csv: the drag and lift coefficients of an obstacle (the mean force between
       outputs over q_inf times its reference length) per output, their mean over the last K
@@ -828,6 +836,39 @@ def oblique_shock(args):
     return 1 if any(failed) else 0
 
 
+def mirror_image(field, mirror):
+    """A grid field (ny, nx) mirrored: x and y swapped, or reversed along x or y."""
+    if mirror == "diagonal":
+        if field.shape[0] != field.shape[1]:
+            sys.exit(f"mpmflow_plot: error: --mirror diagonal needs as many nodes along x as along y "
+                     f"(the grid has {field.shape[1]} x {field.shape[0]})")
+        return field.T
+    return field[:, ::-1] if mirror == "x" else field[::-1, :]
+
+
+def symmetry(args):
+    worst = 0.0
+    for path in snapshot_files(args.output_dir):
+        s = Snapshot(path)
+        if args.mirror == "diagonal":
+            x0, x1, y0, y1 = s.extent()
+            if not (math.isclose(x0, y0) and math.isclose(x1, y1)):
+                sys.exit(f"mpmflow_plot: error: --mirror diagonal needs a square domain, not "
+                         f"[{x0}, {x1}] x [{y0}, {y1}]")
+        differences = []
+        for name in ("density", "pressure"):
+            field = s.grid[name]
+            largest = float(np.max(np.abs(field)))
+            differences.append(float(np.max(np.abs(field - mirror_image(field, args.mirror)))) / largest
+                               if largest > 0 else 0.0)
+        split = int(np.count_nonzero(s.particles["id"] < 0))
+        print(f"t = {s.time:8.4f}: density {differences[0]:.3g}, pressure {differences[1]:.3g} of the largest "
+              f"from the mirror image; {len(s.x)} particles, {split} split")
+        worst = max(worst, *differences)
+    print(f"largest difference from the mirror image ({args.mirror}): {worst:.3g}")
+    return 1 if breaks_bound("difference from the mirror image", worst, args.max_asymmetry, lambda v: f"{v:.3g}") else 0
+
+
 def region(args):
     files = snapshot_files(args.output_dir)[-args.last:]
     densities, per_cells = [], []
@@ -1174,6 +1215,10 @@ def main():
     shock.add_argument("--last", type=int, default=3, help="average over the last K outputs")
     shock.add_argument("--max-standoff-error", type=float)
     shock.add_argument("--max-pitot-error", type=float)
+    mirror = sub.add_parser("symmetry", help="a symmetric case's grid fields against their mirror image")
+    mirror.add_argument("output_dir")
+    mirror.add_argument("--mirror", choices=("diagonal", "x", "y"), required=True)
+    mirror.add_argument("--max-asymmetry", type=float, help="largest difference over the field's largest value")
     box = sub.add_parser("region", help="mass per area and particles per cell in a box")
     box.add_argument("output_dir")
     box.add_argument("--x", type=float, nargs=2, required=True, metavar=("A", "B"))
@@ -1246,6 +1291,8 @@ def main():
         plot_sod(args)
     elif args.command == "region":
         sys.exit(region(args))
+    elif args.command == "symmetry":
+        sys.exit(symmetry(args))
     elif args.command == "scatter":
         sys.exit(particle_scatter(args))
     elif args.command == "oblique-shock":
