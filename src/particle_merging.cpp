@@ -1,7 +1,6 @@
 #include "particle_merging.hpp"
 
 #include <algorithm>
-#include <numeric>
 #include <string>
 #include <vector>
 
@@ -87,7 +86,9 @@ void pair_candidates(std::vector<MergeCandidate> candidates, std::vector<index_t
       level_end = level + 1;
       while (level_end < pairs.size() && pairs[level_end].cost <= pairs[level].cost * (1 + merge_tie_tolerance))
         ++level_end;
-      const auto free_pair = [&](const Pair& pair) { return !taken[pair.first - begin] && !taken[pair.second - begin]; };
+      const auto free_pair = [&](const Pair& pair) {
+        return !taken[pair.first - begin] && !taken[pair.second - begin];
+      };
       for (size_t k = level; k < level_end; ++k)
         if (free_pair(pairs[k])) ++claims[pairs[k].first - begin], ++claims[pairs[k].second - begin];
       for (size_t k = level; k < level_end; ++k) {  // (an uncontested pair's particles are claimed once)
@@ -126,8 +127,8 @@ index_t ParticleMerging::merge(ParticleState& particles, const ParticleBoundarie
   const size_t n = static_cast<size_t>(num_candidates);
   candidate_keys_.hold(3 * n, "merge_candidate_keys");
   candidate_places_.hold(3 * n, "merge_candidate_places");
-  const ParticleIdView keys = candidate_keys_.part(3 * n);     // (cell, id, index) a candidate
-  const RealView places = candidate_places_.part(3 * n);       // (x, y, mass) a candidate
+  const ParticleIdView keys = candidate_keys_.part(3 * n);  // (cell, id, index) a candidate
+  const RealView places = candidate_places_.part(3 * n);    // (x, y, mass) a candidate
   Kokkos::parallel_for(
       "merge_candidate_keys", Kokkos::RangePolicy<ExecutionSpace>(0, num_candidates), KOKKOS_LAMBDA(const index_t k) {
         const index_t p = candidates(k);

@@ -77,8 +77,8 @@ class ParticleMerging {
   bool enabled_ = false;
   real_t initial_volume_ = 0;
   // Kept from call to call, scratch, not state: the candidates' list (select_indices), their keys
-  // (cell, id, index) and places (x, y, mass) with host copies, the pairs' lists (keep, gone, removed) likewise, and the
-  // hole fillers (plan_hole_filling).
+  // (cell, id, index) and places (x, y, mass) with host copies, the pairs' lists (keep, gone,
+  // removed) likewise, and the hole fillers (plan_hole_filling).
   mutable IndexView candidates_;
   mutable KeptBuffer<ParticleIdView> candidate_keys_;
   mutable KeptBuffer<RealView> candidate_places_;

@@ -207,11 +207,11 @@ TEST(ParticleMerging, PairsTheCheapestFirstAndKeepsTheSmallerId) {
 TEST(ParticleMerging, APairingOfMirrorImagesIsItsOwnMirrorImage) {
   // The diagonal x = y of a cell: c on it, a and b mirror images 0.1 from c, d on it 0.3 from c.
   // Round-off left the mirror images a part in 1e13 off (as mirror-image particles of a run are).
-  const real_t off = 1e-13;
-  std::vector<MergeCandidate> candidates = {{0, -5, 0, 0.5, 0.5, 1.0},
-                                            {0, -6, 1, 0.5 + 0.1 / std::sqrt(2.0) + off, 0.5 - 0.1 / std::sqrt(2.0), 1.0},
-                                            {0, -3, 2, 0.5 - 0.1 / std::sqrt(2.0), 0.5 + 0.1 / std::sqrt(2.0), 1.0},
-                                            {0, -4, 3, 0.8, 0.8, 1.0}};
+  const real_t off = 1e-13, d = 0.1 / std::sqrt(2.0);
+  const std::vector<MergeCandidate> candidates = {{0, -5, 0, 0.5, 0.5, 1.0},
+                                                  {0, -6, 1, 0.5 + d + off, 0.5 - d, 1.0},
+                                                  {0, -3, 2, 0.5 - d, 0.5 + d, 1.0},
+                                                  {0, -4, 3, 0.8, 0.8, 1.0}};
   std::vector<index_t> keep, gone;
   pair_candidates(candidates, keep, gone);
   // (c, a) and (c, b) cost the same to round-off: neither is taken; a and b pair at the next level,
