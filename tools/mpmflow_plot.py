@@ -57,8 +57,8 @@ python3-numpy (scripts/setup.sh installs them).
       diagonal, a body on the tunnel's centre line) against its mirror image, at every output: the
       largest difference between the grid's density (and pressure) and its mirror image, over
       the field's largest value. `diagonal`: x and y swapped (a square grid over a square domain);
-      `x`: mirrored about the domain's middle across x; `y`: likewise across y. Also the split
-      particles (negative ids) there are; with --max-asymmetry, exits 1 when an output's
+      `x`: mirrored about the domain's middle across x; `y`: likewise across y. Also how many
+      particles are split ones (negative ids); with --max-asymmetry, exits 1 when an output's
       difference exceeds F.
   mpmflow_plot.py forces OUTPUT_DIR [--obstacle K] [--last K] [--out DIR] [--min-drag X] [--max-drag Y]
       From diagnostics.csv: the drag and lift coefficients of an obstacle (the mean force between
