@@ -126,16 +126,18 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
   }
 
   // Append the new pieces as copies of their parents, then share out mass and domain and place them.
-  new_source_.hold(static_cast<size_t>(num_new), "split_new_source");
-  const IndexView new_source = new_source_.part(static_cast<size_t>(num_new));
-  Kokkos::parallel_for(
-      "split_sources", Kokkos::RangePolicy<ExecutionSpace>(0, num_local), KOKKOS_LAMBDA(const index_t k) {
-        const index_t end = k + 1 < num_local ? first_new(k + 1) : num_new;
-        for (index_t j = first_new(k); j < end; ++j) new_source(j) = parent(k);
-      });
+  // (Copied parent by parent: a list of each new piece's parent would hold memory at the growth's
+  // peak, GrowingForTheHalvesHoldsNoFieldTwiceButTheOneBeingMoved.)
   particles.grow_to_hold(count + num_new);
   particles.count = count + num_new;
-  copy_particles("split_copy", particles, IndexView(), count, new_source, num_new);
+  {
+    const WholeParticles whole(particles);
+    Kokkos::parallel_for(
+        "split_copy", Kokkos::RangePolicy<ExecutionSpace>(0, num_local), KOKKOS_LAMBDA(const index_t k) {
+          const index_t end = k + 1 < num_local ? first_new(k + 1) : num_new;
+          for (index_t j = first_new(k); j < end; ++j) whole.copy(count + j, parent(k));
+        });
+  }
   const ParticleState pt = particles;
   Kokkos::parallel_for(
       "split_pieces", Kokkos::RangePolicy<ExecutionSpace>(0, num_local), KOKKOS_LAMBDA(const index_t k) {

@@ -82,7 +82,6 @@ class ParticleSplitting {
   IndexView parent_;  // this step's splitting particles, in index order
   KeptBuffer<ParticleIdView> new_id_;  // their pieces' ids (the first of each parent's)
   KeptBuffer<IndexView> first_new_;    // where each parent's new pieces start among the appended
-  KeptBuffer<IndexView> new_source_;   // the parent of each appended particle
 };
 
 }  // namespace mpmflow
