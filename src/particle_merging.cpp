@@ -86,14 +86,13 @@ void pair_candidates(std::vector<MergeCandidate> candidates, std::vector<index_t
       level_end = level + 1;
       while (level_end < pairs.size() && pairs[level_end].cost <= pairs[level].cost * (1 + merge_tie_tolerance))
         ++level_end;
-      const auto free_pair = [&](const Pair& pair) {
-        return !taken[pair.first - begin] && !taken[pair.second - begin];
-      };
       for (size_t k = level; k < level_end; ++k)
-        if (free_pair(pairs[k])) ++claims[pairs[k].first - begin], ++claims[pairs[k].second - begin];
-      for (size_t k = level; k < level_end; ++k) {  // (an uncontested pair's particles are claimed once)
+        if (!taken[pairs[k].first - begin] && !taken[pairs[k].second - begin])
+          ++claims[pairs[k].first - begin], ++claims[pairs[k].second - begin];
+      // An uncontested pair's particles are claimed once (a taken particle is claimed by none).
+      for (size_t k = level; k < level_end; ++k) {
         const Pair& pair = pairs[k];
-        if (claims[pair.first - begin] != 1 || claims[pair.second - begin] != 1 || !free_pair(pair)) continue;
+        if (claims[pair.first - begin] != 1 || claims[pair.second - begin] != 1) continue;
         taken[pair.first - begin] = taken[pair.second - begin] = 1;
         keep.push_back(candidates[pair.first].index);
         gone.push_back(candidates[pair.second].index);

@@ -93,11 +93,10 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
   index_t num_new = 0;
   long long splits_made = 0;
   {
-    const ParticleIdView id = particles.id;
     const ParticleState before = particles;
     Kokkos::parallel_for(
         "split_parent_ids", Kokkos::RangePolicy<ExecutionSpace>(0, num_local), KOKKOS_LAMBDA(const index_t k) {
-          new_id(k) = id(parent(k));
+          new_id(k) = before.id(parent(k));
           first_new(k) = split_pieces(rule.axis(before, parent(k))) - 1;  // its new pieces, for now
         });
     const auto host_id = new_id_.host_part(num_parents);
@@ -108,7 +107,8 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
     local.reserve(2 * num_parents);
     for (size_t k = 0; k < num_parents; ++k) {
       local.push_back(host_id(k));
-      if (host_first(k) == 3) local.push_back(host_id(k));  // a split in four numbers two splits
+      // A split in four numbers two splits.
+      if (host_first(k) == split_pieces(split_both_axes) - 1) local.push_back(host_id(k));
     }
     std::vector<long long> all = context.all_gather(local);
     std::sort(all.begin(), all.end());
