@@ -1,5 +1,6 @@
 #include "solver.hpp"
 
+#include <algorithm>
 #include <sstream>
 #include <type_traits>
 
@@ -115,6 +116,20 @@ void Solver::prepare_grid() {
   grid_holds_particles_ = true;
 }
 
+namespace {
+// The signal speed |v| + c of the gas beyond the open sides, the free stream (0 without open
+// sides): it enters at inflow and far-field sides and presses on outflow and far-field ones, so its
+// waves cross the side nodes whatever the gas inside them. (Without it, a tunnel whose gas inside
+// is slower than its free stream took steps too long for the nodes the free stream drives: a
+// far-field side with the free stream entering at 2 into gas at rest (c = 1) stopped at the first
+// step with a negative density.)
+real_t open_side_signal_speed(const BoundaryConfig& boundaries, real_t gamma) {
+  if (!boundaries.any_open() || !boundaries.has_free_stream) return 0;
+  const GasState& gas = boundaries.free_stream;
+  return signal_speed(gas.velocity_x, gas.velocity_y, sound_speed(gamma, gas.pressure, gas.density));
+}
+}  // namespace
+
 real_t Solver::stable_time_step() {
   prepare_grid();
   auto t = timers_.scope(Phase::time_step);
@@ -123,7 +138,9 @@ real_t Solver::stable_time_step() {
   const bool local_invalid =
       transfers_->particles_in_doubt() > 0 && count_invalid_gas_states(particles_, config_.physics.gamma) > 0;
   const real_t node_speed = max_node_signal_speed(slab_->fields(), config_.physics.gamma, settings_.node_mass_threshold);
-  const real_t max_speed = local_invalid ? largest_real : node_speed;
+  const real_t max_speed =
+      local_invalid ? largest_real
+                    : std::max(node_speed, open_side_signal_speed(config_.boundaries, config_.physics.gamma));
   const real_t global_max_speed = static_cast<real_t>(context().max(double(max_speed)));
   if (!(global_max_speed < largest_real)) {
     if (context().max(local_invalid ? 1.0 : 0.0) > 0) report_invalid_particle(local_invalid);

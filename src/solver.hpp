@@ -41,9 +41,10 @@ class Solver {
   Solver& operator=(const Solver&) = delete;
 
   // dt = cfl h / max_i(|v_i| + c_i) over the nodes (paper eq. 29 with cfl = 0.5, h the smaller
-  // cell side), from the step's first P2G, which this runs and the next advance() then uses
-  // (max_node_signal_speed: the paper takes max_p(|v_p| + c_p) over the particles, which a few
-  // light particles with outlying states can set). A pass over the particles checks the state:
+  // cell side) and, where a side is open, the free stream beyond it, from the step's first P2G,
+  // which this runs and the next advance() then uses (max_node_signal_speed: the paper takes
+  // max_p(|v_p| + c_p) over the particles, which a few light particles with outlying states can
+  // set). A pass over the particles checks the state:
   // throws InvalidStateError, naming the first bad particle, if any particle has a NaN or
   // non-positive density or a NaN pressure or velocity.
   real_t stable_time_step();
