@@ -47,10 +47,11 @@ IndexRange2D condition_band(const GridSlab& slab, BoundaryType type, Side side) 
 // members).
 //
 // The gas outside is a continuum at the free-stream state. Where the free stream crosses the side
-// (PressureSideNodes::crossed) and gas crosses it there (at an outlet where the gas at the side's
-// node moves out; at every node of a far-field inlet, where the entering lattice moves in with the
-// gas), the particles reach past the side and fall short of it as they cross; the gas outside fills
-// what they leave uncovered. Its stress contributes
+// (PressureSideNodes::crossed) and gas crosses it there or may fall short of it (at every node of
+// an outflow side; at a far-field outlet where the gas at the side's node moves out; at every node
+// of a far-field inlet, where the entering lattice moves in with the gas), the particles reach past
+// the side and fall short of it; the gas outside fills what they leave uncovered. Its stress
+// contributes
 //   f_i = -\int_outside sigma grad N_i dA = p_out \int_outside grad N_i dA = -p_out g_i,
 // g_i = \int_particles grad N_i dA = sum_p (M / rho) grad phi_i (GIMP's weights are averages over
 // the particle's domain; the shape functions vanish far off), to the nodes whose shape functions
@@ -61,12 +62,20 @@ IndexRange2D condition_band(const GridSlab& slab, BoundaryType type, Side side) 
 // uniform stream at Mach 0.42 leaving through the side drew a rarefaction from it and lost 3.4 % of
 // its mass by t = 2; one entering through a far-field side slowed from 0.5 to 0.22 by t = 3:
 // README, Wind tunnel.)
-// Elsewhere (sides the free stream runs along, an outlet's nodes where the gas does not move out)
-// the gas outside acts on the side as a traction, f_i -= p_out n \int_side N_i ds on the side's
-// nodes. (The gauge on sides along the flow let the particles crowd there: with the outside
-// pressure taken out of their forces, particles that overlap no longer push apart, and the strip
-// fill, OpenBoundaries, keeps adding where the random arrangement leaves gaps: the rows along them
-// 1.52 and 1.55 against 1.4 in WindTunnel.FarFieldAlongTheFlowKeepsTheFreeStream.)
+// Where the particles end at the side, this is the traction below. On an outflow side the gas moves
+// away from the side wherever the gas outside presses harder than the gas inside, and the particles
+// fall short of it: with the traction there (until 2026-12-06) the side's nodes kept the whole
+// outside pressure while the particles on them thinned out, and crushed the last particles (a
+// channel at rest at pressure 1 with gas outside at 1.5, WindTunnel.TheGasOutsideAnOutflowSide...:
+// 5.33 on the last particle, 0.70 beside it; now 0.845 to 1.585). The gas outside reaches only the
+// three lines: an outflow side lets no gas in, and a far field is the side for gas pushed in.
+// Elsewhere (far-field sides the free stream runs along, a far-field outlet's nodes where the gas
+// does not move out) the gas outside acts on the side as a traction, f_i -= p_out n \int_side N_i
+// ds on the side's nodes. (The gauge on far-field sides along the flow let the particles crowd
+// there: with the outside pressure taken out of their forces, particles that overlap no longer push
+// apart, and the strip fill, OpenBoundaries, keeps adding where the random arrangement leaves gaps:
+// the rows along them 1.52 and 1.55 against 1.4 in
+// WindTunnel.FarFieldAlongTheFlowKeepsTheFreeStream.)
 // The outside pressure p_out is the free stream's, except on a far-field side the free stream
 // enters (an inlet): there that of the Riemann invariants of the flow normal to the side, the
 // entering one from the free stream, the leaving one from the gas at the side's node
@@ -175,7 +184,7 @@ struct SidePressure {
     real_t inside_x, gas_x, inside_y, gas_y;
     dual_cell(gi, nodes.cells_x, hx, left, right, inside_x, gas_x);
     dual_cell(gj, nodes.cells_y, hy, bottom, top, inside_y, gas_y);
-    if (nodes.crossed[slot] && (outward > 0 || nodes.inlet[s])) {
+    if (nodes.crossed[slot] && (outward > 0 || nodes.inlet[s] || nodes.outflow[s])) {
       const real_t p_outside = side_node_held ? outside_pressure(state, s, side_node, side_gi, side_gj) : p_inf;
       fx -= p_outside * nodes.unit * real_t(gradients(entry));
       fy -= p_outside * nodes.unit * real_t(gradients(entry + 1));
@@ -443,6 +452,7 @@ PressureSideNodes::PressureSideNodes(const GridSlab& slab, const std::array<Boun
     inward_normal(s, nx, ny);
     const real_t free_stream_inward = inward_speed(s, free_stream.velocity_x, free_stream.velocity_y);
     inlet[s] = far_field_inlet(side_type[s], free_stream_inward);
+    outflow[s] = side_type[s] == BoundaryType::outflow;
     crossed[count] = side_type[s] == BoundaryType::outflow || free_stream_inward < 0 || inlet[s];
     any_crossed |= crossed[count];
     if (crossed[count]) {

@@ -132,6 +132,9 @@ struct PressureSideNodes {
   // By Side: the far-field sides the free stream enters, whose gas outside acts at every node of
   // the three lines, at the pressure of the Riemann invariants (SidePressure).
   Kokkos::Array<bool, num_sides> inlet = {};
+  // By Side: the outflow sides, whose gas outside acts at every node of the three lines at the
+  // free-stream pressure.
+  Kokkos::Array<bool, num_sides> outflow = {};
   Kokkos::Array<index_t, num_sides> first_entry = {};
   index_t entries = 0;
   index_t node_offset_x = 0, node_offset_y = 0, cells_x = 0, cells_y = 0;

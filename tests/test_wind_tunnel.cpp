@@ -1544,6 +1544,24 @@ TEST(WindTunnel, TheTimeStepHoldsForTheFreeStreamBeyondTheOpenSides) {
   EXPECT_GT(mass, 1.1 * initial_mass);  // the free stream moved 0.2 in: 0.28 more mass a unit height
 }
 
+// The gas outside an outflow side acts on the gas inside where that ends, wherever the gas at the
+// side moves: the channel at rest (pressure 1) with gas outside at 1.5 beyond an outflow side sends a
+// compression in, and the last particles, which fall short of the side as the gas moves in, keep
+// near the outside pressure (seen at t = 0.1: particles' pressures 0.845 to 1.585). Before 2026-12-06,
+// with the outside pressure a traction on the side's nodes wherever the gas there did not move out,
+// the traction stayed whole on the side's nodes as the particles fell short of them, and crushed
+// the last particle to a pressure of 5.33 while the gas next to it fell to 0.70.
+TEST(WindTunnel, TheGasOutsideAnOutflowSidePressesWhereTheGasEnds) {
+  const auto [initial_mass, mass, h] = run_on_one_slab(channel_at_rest("outflow", 1.5, 0), 0.1);
+  const auto [lowest, highest] = std::minmax_element(h.p.begin(), h.p.end());
+  std::printf("[tunnel] channel at rest, gas outside its outflow side at 1.5: pressures %.3f to %.3f at t = 0.1\n",
+              *lowest, *highest);
+  EXPECT_NEAR(mass, initial_mass, 1e-12 * initial_mass);  // nothing left
+  EXPECT_GT(*lowest, 0.8);
+  EXPECT_LT(*highest, 1.8);
+  EXPECT_GT(*highest, 1.3);  // the compression came in
+}
+
 // A uniform stream through far-field sides that it crosses (regular placement, 2 x 2 particles per
 // cell, 40 x 40 cells on the unit square, density and pressure 1, t = 3; the exact solution is the
 // stream itself): Mach 0.42 along x through far-field left and right sides (slip walls along it);
