@@ -44,9 +44,8 @@ class Solver {
   // cell side) and, where a side is open, the free stream beyond it, from the step's first P2G,
   // which this runs and the next advance() then uses (max_node_signal_speed: the paper takes
   // max_p(|v_p| + c_p) over the particles, which a few light particles with outlying states can
-  // set). A pass over the particles checks the state:
-  // throws InvalidStateError, naming the first bad particle, if any particle has a NaN or
-  // non-positive density or a NaN pressure or velocity.
+  // set). A pass over the particles checks the state: throws InvalidStateError, naming the first
+  // bad particle, if any particle has a NaN or non-positive density or a NaN pressure or velocity.
   real_t stable_time_step();
   // The check alone (before an output, so that a bad state is never written as a good one).
   void check_state() { (void)stable_time_step(); }
