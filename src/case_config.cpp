@@ -231,6 +231,27 @@ Polygon read_points_file_through(const std::string& path, PointsFiles* points_fi
   return polygon;
 }
 
+// How far a point may lie beyond the domain and count as on its side: round-off of its extent.
+double domain_tolerance(const DomainConfig& domain) {
+  return 1e-9 * std::max(domain.x_max - domain.x_min, domain.y_max - domain.y_min);
+}
+
+// "[x_lo, x_hi] x [y_lo, y_hi]", as the error messages name a box.
+std::string describe_box(double x_lo, double x_hi, double y_lo, double y_hi) {
+  std::ostringstream text;
+  text << "[" << x_lo << ", " << x_hi << "] x [" << y_lo << ", " << y_hi << "]";
+  return text.str();
+}
+
+// Whether a vertex of `polygon` lies beyond the domain by more than round-off.
+bool reaches_beyond(const Polygon& polygon, const DomainConfig& domain) {
+  const double tolerance = domain_tolerance(domain);
+  return std::any_of(polygon.begin(), polygon.end(), [&](const Point& v) {
+    return v.x < domain.x_min - tolerance || v.x > domain.x_max + tolerance || v.y < domain.y_min - tolerance ||
+           v.y > domain.y_max + tolerance;
+  });
+}
+
 ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const DomainConfig& domain,
                              const std::pair<double, double>& flow_direction,
                              const std::filesystem::path& case_directory, PointsFiles* points_files) {
@@ -286,6 +307,21 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
     if (!crossing.empty())
       throw ConfigError(r.source() + ": " + obstacle.description +
                         ": expected a simple polygon; it intersects itself: " + crossing);
+    // A polygon that reaches beyond the domain (a ramp or a floor run out through a side) is its
+    // part inside; its edges on the sides are no surface (below).
+    if (reaches_beyond(polygon, domain)) {
+      const Polygon inside = clipped_to_box(polygon, domain.x_min, domain.x_max, domain.y_min, domain.y_max);
+      if (inside.size() < 3)
+        throw ConfigError(r.source() + ": " + obstacle.description + ": expected an obstacle reaching into the domain " +
+                          describe_box(domain.x_min, domain.x_max, domain.y_min, domain.y_max) +
+                          "; it lies wholly outside it");
+      const std::string pieces = describe_self_intersection(inside);
+      if (!pieces.empty())
+        throw ConfigError(r.source() + ": " + obstacle.description + ": expected an obstacle whose part inside the domain " +
+                          describe_box(domain.x_min, domain.x_max, domain.y_min, domain.y_max) +
+                          " is one piece; clipped to it, " + pieces + " (give each piece as an obstacle of its own)");
+      polygon = inside;
+    }
     x_lo = y_lo = std::numeric_limits<double>::infinity();
     x_hi = y_hi = -x_lo;
     for (const Point& v : polygon) {
@@ -298,18 +334,14 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
     }
   }
   r.finish();
-  // An obstacle may touch the domain's edges (the step does) but not reach beyond them.
-  const double width = domain.x_max - domain.x_min, height = domain.y_max - domain.y_min;
-  const double tolerance = 1e-9 * std::max(width, height);
+  // A circle may touch the domain's edges but not reach beyond them (a polygon is clipped, above).
+  const double tolerance = domain_tolerance(domain);
   if (x_lo < domain.x_min - tolerance || x_hi > domain.x_max + tolerance || y_lo < domain.y_min - tolerance ||
-      y_hi > domain.y_max + tolerance) {
-    std::ostringstream msg;
-    msg << r.source() << ": " << obstacle.description << ": expected an obstacle inside the domain ["
-        << domain.x_min << ", " << domain.x_max << "] x [" << domain.y_min << ", " << domain.y_max
-        << "]; its bounding box is [" << x_lo << ", " << x_hi << "] x [" << y_lo << ", " << y_hi << "]";
-    throw ConfigError(msg.str());
-  }
-  // The coefficients' length, of the obstacle as the case gives it.
+      y_hi > domain.y_max + tolerance)
+    throw ConfigError(r.source() + ": " + obstacle.description + ": expected an obstacle inside the domain " +
+                      describe_box(domain.x_min, domain.x_max, domain.y_min, domain.y_max) + "; its bounding box is " +
+                      describe_box(x_lo, x_hi, y_lo, y_hi));
+  // The coefficients' length, of the obstacle as the case gives it (its part inside the domain).
   obstacle.reference_length = obstacle_reference_length(obstacle, flow_direction.first, flow_direction.second);
   // An edge on a side of the domain is not a surface the gas meets (the signed distance puts the
   // obstacle beyond it: make_host_obstacle_set).

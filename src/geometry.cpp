@@ -110,6 +110,41 @@ Polygon transformed(const Polygon& polygon, const PolygonTransform& transform) {
   return out;
 }
 
+namespace {
+// The part of `polygon` on one side of the line where coordinate `axis` (0: x, 1: y) is `bound`:
+// at or above it (keep_above) or at or below.
+Polygon clipped_to_half_plane(const Polygon& polygon, int axis, double bound, bool keep_above) {
+  auto coordinate = [axis](const Point& p) { return axis == 0 ? p.x : p.y; };
+  auto kept = [&](const Point& p) { return keep_above ? coordinate(p) >= bound : coordinate(p) <= bound; };
+  Polygon out;
+  const size_t n = polygon.size();
+  for (size_t i = 0; i < n; ++i) {
+    const Point& a = polygon[i];
+    const Point& b = polygon[(i + 1) % n];
+    if (kept(a)) out.push_back(a);
+    if (kept(a) != kept(b)) {
+      const double t = (bound - coordinate(a)) / (coordinate(b) - coordinate(a));
+      Point crossing{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)};
+      (axis == 0 ? crossing.x : crossing.y) = bound;  // on the side, not a rounding off it
+      out.push_back(crossing);
+    }
+  }
+  return out;
+}
+}  // namespace
+
+Polygon clipped_to_box(const Polygon& polygon, double x_min, double x_max, double y_min, double y_max) {
+  Polygon clipped = clipped_to_half_plane(polygon, 0, x_min, true);
+  clipped = clipped_to_half_plane(clipped, 0, x_max, false);
+  clipped = clipped_to_half_plane(clipped, 1, y_min, true);
+  clipped = clipped_to_half_plane(clipped, 1, y_max, false);
+  Polygon out;
+  for (const Point& p : clipped)
+    if (out.empty() || p.x != out.back().x || p.y != out.back().y) out.push_back(p);
+  while (out.size() > 1 && out.front().x == out.back().x && out.front().y == out.back().y) out.pop_back();
+  return out;
+}
+
 std::string describe_self_intersection(const Polygon& polygon) {
   const size_t n = polygon.size();
   for (size_t i = 0; i < n; ++i) {

@@ -38,6 +38,13 @@ Polygon transformed(const Polygon& polygon, const PolygonTransform& transform);
 // Empty when the polygon is simple; otherwise names two edges that cross or touch.
 std::string describe_self_intersection(const Polygon& polygon);
 
+// The part of `polygon` within the box [x_min, x_max] x [y_min, y_max], clipped against each side
+// in turn (Sutherland and Hodgman); the points where it crosses a side lie exactly on it, and
+// repeated consecutive points are dropped. Empty where nothing of it lies within. A polygon whose
+// part within is several pieces comes out as one outline joining them along the box's sides, on
+// edges that overlap (describe_self_intersection names them).
+Polygon clipped_to_box(const Polygon& polygon, double x_min, double x_max, double y_min, double y_max);
+
 // ---- Device-side signed distance -----------------------------------------------------------------
 
 struct SignedDistance {

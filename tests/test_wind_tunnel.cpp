@@ -116,6 +116,29 @@ TEST(PolygonInput, SelfIntersectionIsNamed) {
   EXPECT_FALSE(describe_self_intersection(spike).empty());
 }
 
+// The part of a polygon within a box: a square half outside comes out as its quarter inside, with
+// the points where it crosses the sides on them; one inside as it is; one outside empty; a U whose
+// prongs alone reach in as the two prongs joined along the side, which describe_self_intersection
+// names.
+TEST(PolygonInput, ClippedToABoxIsThePartInside) {
+  auto as_pairs = [](const Polygon& polygon) {
+    std::vector<std::pair<double, double>> points;
+    for (const Point& p : polygon) points.emplace_back(p.x, p.y);
+    return points;
+  };
+  using Points = std::vector<std::pair<double, double>>;
+  EXPECT_EQ(as_pairs(clipped_to_box({{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}, 0, 2, 0, 2)),
+            (Points{{1, 0}, {1, 1}, {0, 1}, {0, 0}}));
+  const Polygon inside = {{0.5, 0.5}, {1.5, 0.5}, {1, 1.5}};
+  EXPECT_EQ(as_pairs(clipped_to_box(inside, 0, 2, 0, 2)), as_pairs(inside));
+  EXPECT_TRUE(clipped_to_box({{3, 3}, {4, 3}, {4, 4}}, 0, 2, 0, 2).empty());
+  const Polygon prongs = {{1, -1}, {3, -1}, {3, 0.5}, {2.5, 0.5}, {2.5, -0.5}, {1.5, -0.5}, {1.5, 0.5}, {1, 0.5}};
+  const Polygon joined = clipped_to_box(prongs, 0, 4, 0, 2);
+  EXPECT_EQ(as_pairs(joined),
+            (Points{{3, 0}, {3, 0.5}, {2.5, 0.5}, {2.5, 0}, {1.5, 0}, {1.5, 0.5}, {1, 0.5}, {1, 0}}));
+  EXPECT_FALSE(describe_self_intersection(joined).empty());
+}
+
 // ---- Case-file errors for geometry and open boundaries -------------------------------------------
 
 // A small wind tunnel; `extra` is spliced into the top-level object.
@@ -267,6 +290,48 @@ TEST(SignedDistance, AnEdgeOnASideOfTheDomainIsNoSurface) {
 // normal came from the node's difference to its nearest point, round-off for a node on the face
 // ((0, 1) or (0, -1) for nodes on the step's front face), and the sign of the distance with it
 // (some nodes on the step's top inside, some out).
+// An obstacle that reaches beyond the domain is its part inside: a 30 degree ramp from (0.5, 0) run
+// out beyond the top and the right of the tunnel [0, 4] x [0, 2] is the polygon clipped to it, its
+// edges on the sides no surface, and its signed distance is that of the same part given by hand;
+// a rectangle reaching below the floor is the rectangle inside.
+TEST(SignedDistance, AnObstacleReachingBeyondTheDomainIsItsPartInside) {
+  const double tan30 = std::tan(3.14159265358979323846 / 6);
+  const std::string beyond = points_file("ramp_beyond", {{0.5, 0}, {5, 4.5 * tan30}, {5, -1}, {0.5, -1}});
+  const double top_x = 0.5 + 2 / tan30;  // where the ramp's face meets the top side
+  const std::string by_hand = points_file("ramp_by_hand", {{0.5, 0}, {top_x, 2}, {4, 2}, {4, 0}});
+  auto ramp = [](const std::string& file) {
+    return parse_case(tunnel_case(kTunnelSides, kFreeStream + R"(, "obstacles": [{"type": "polygon", "file": ")" +
+                                                    file + R"("}])"),
+                      "ramp.json");
+  };
+  const CaseConfig clipped = ramp(beyond), given = ramp(by_hand);
+  const ObstacleConfig& o = clipped.obstacles[0];
+  ASSERT_EQ(o.vertices_x.size(), 4u);
+  // In the file's order, from its first vertex (inside): the face, then along the top, the right
+  // side and the floor.
+  const std::vector<real_t> expected_x = {0.5, top_x, 4, 4};
+  for (size_t v = 0; v < 4; ++v) EXPECT_NEAR(o.vertices_x[v], expected_x[v], 1e-12) << v;
+  EXPECT_EQ(o.vertices_y, (std::vector<real_t>{0, 2, 2, 0}));  // on the sides exactly
+  EXPECT_EQ(o.edge_side, (std::vector<int>{-1, top_side, right_side, bottom_side}));
+  const HostObstacleSet clipped_set = make_host_obstacle_set(clipped.obstacles);
+  const HostObstacleSet given_set = make_host_obstacle_set(given.obstacles);
+  for (double x = 0; x <= 4; x += 0.1)
+    for (double y = 0; y <= 2; y += 0.1) {
+      const SignedDistance a = clipped_set(x, y), b = given_set(x, y);
+      EXPECT_NEAR(a.distance, b.distance, 1e-12) << x << ", " << y;
+      EXPECT_NEAR(a.normal_x, b.normal_x, 1e-9) << x << ", " << y;
+      EXPECT_NEAR(a.normal_y, b.normal_y, 1e-9) << x << ", " << y;
+    }
+  EXPECT_NEAR(clipped_set(2, 0.5).distance, -((2 - 0.5) * tan30 - 0.5) * std::cos(3.14159265358979323846 / 6), 1e-12);
+  const CaseConfig block = parse_case(
+      tunnel_case(kTunnelSides, kFreeStream + R"(, "obstacles": [{"type": "rectangle", "x": [3, 5], "y": [-1, 0.5]}])"),
+      "block.json");
+  EXPECT_EQ(block.obstacles[0].vertices_x, (std::vector<real_t>{4, 4, 3, 3}));
+  EXPECT_EQ(block.obstacles[0].vertices_y, (std::vector<real_t>{0, 0.5, 0.5, 0}));
+  fs::remove(beyond);
+  fs::remove(by_hand);
+}
+
 TEST(SignedDistance, NodesOnAFaceAlongAGridLineAreInsideWithTheFacesNormal) {
   const CaseConfig config = parse_case(
       tunnel_case(kTunnelSides, kFreeStream + R"(, "obstacles": [{"type": "rectangle", "x": [0.6, 2.3], "y": [0, 0.7]}])"),
@@ -361,6 +426,23 @@ TEST_F(GeometryErrors, ObstacleOutsideTheDomain) {
                    "box is [3.65, 4.15] x [0.75, 1.25]"),
             std::string::npos)
       << e;
+}
+
+// A polygon may reach beyond the domain, not lie wholly outside it, and its part inside must be one
+// piece (here two prongs rising through the floor, [1, 1.5] and [2.5, 3] wide: p.dat is moved by
+// (1, 1)).
+TEST_F(GeometryErrors, APolygonBeyondTheDomainIsOnePieceInsideIt) {
+  std::string e = error_of(polygon_case("4 4\n5 4\n5 5\n"));
+  EXPECT_NE(e.find("/obstacles/1 (polygon) from"), std::string::npos) << e;
+  EXPECT_NE(e.find(": expected an obstacle reaching into the domain [0, 4] x [0, 2]; it lies wholly outside it"),
+            std::string::npos)
+      << e;
+  e = error_of(polygon_case("0 -2\n2 -2\n2 -0.5\n1.5 -0.5\n1.5 -1.5\n0.5 -1.5\n0.5 -0.5\n0 -0.5\n"));
+  EXPECT_NE(e.find(": expected an obstacle whose part inside the domain [0, 4] x [0, 2] is one piece; clipped to it, "
+                   "edge "),
+            std::string::npos)
+      << e;
+  EXPECT_NE(e.find("(give each piece as an obstacle of its own)"), std::string::npos) << e;
 }
 
 TEST_F(GeometryErrors, OpenSidesNeedAFreeStreamAndAnInflow) {
