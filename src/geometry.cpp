@@ -133,15 +133,31 @@ Polygon clipped_to_half_plane(const Polygon& polygon, int axis, double bound, bo
 }
 }  // namespace
 
+Polygon circle_outline(double centre_x, double centre_y, double radius, int points) {
+  Polygon outline;
+  outline.reserve(points);
+  for (int v = 0; v < points; ++v) {
+    const double angle = 2 * 3.14159265358979323846 * v / points;
+    outline.push_back({centre_x + radius * std::cos(angle), centre_y + radius * std::sin(angle)});
+  }
+  return outline;
+}
+
 Polygon clipped_to_box(const Polygon& polygon, double x_min, double x_max, double y_min, double y_max) {
   Polygon clipped = clipped_to_half_plane(polygon, 0, x_min, true);
   clipped = clipped_to_half_plane(clipped, 0, x_max, false);
   clipped = clipped_to_half_plane(clipped, 1, y_min, true);
   clipped = clipped_to_half_plane(clipped, 1, y_max, false);
+  // A vertex on a side up to round-off (a circle's outline, whose sine at 180 degrees is 1e-16)
+  // and the crossing next to it: one point.
+  const double tolerance = 1e-12 * std::max(x_max - x_min, y_max - y_min);
+  auto same = [tolerance](const Point& a, const Point& b) {
+    return std::fabs(a.x - b.x) <= tolerance && std::fabs(a.y - b.y) <= tolerance;
+  };
   Polygon out;
   for (const Point& p : clipped)
-    if (out.empty() || p.x != out.back().x || p.y != out.back().y) out.push_back(p);
-  while (out.size() > 1 && out.front().x == out.back().x && out.front().y == out.back().y) out.pop_back();
+    if (out.empty() || !same(p, out.back())) out.push_back(p);
+  while (out.size() > 1 && same(out.front(), out.back())) out.pop_back();
   return out;
 }
 

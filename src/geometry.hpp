@@ -38,9 +38,12 @@ Polygon transformed(const Polygon& polygon, const PolygonTransform& transform);
 // Empty when the polygon is simple; otherwise names two edges that cross or touch.
 std::string describe_self_intersection(const Polygon& polygon);
 
+// A circle as a polygon of `points` vertices on it, counter-clockwise from (x + r, y).
+Polygon circle_outline(double centre_x, double centre_y, double radius, int points);
+
 // The part of `polygon` within the box [x_min, x_max] x [y_min, y_max], clipped against each side
 // in turn (Sutherland and Hodgman); the points where it crosses a side lie exactly on it, and
-// repeated consecutive points are dropped. Empty where nothing of it lies within. A polygon whose
+// a point within 1e-12 of the box's size of the one before it is dropped. Empty where nothing of it lies within. A polygon whose
 // part within is several pieces comes out as one outline joining them along the box's sides, on
 // edges that overlap (describe_self_intersection names them).
 Polygon clipped_to_box(const Polygon& polygon, double x_min, double x_max, double y_min, double y_max);

@@ -16,6 +16,7 @@
 
 #include "build_commit.hpp"
 #include "gas_physics.hpp"
+#include "geometry.hpp"
 #include "hdf5_io.hpp"
 #include "run_files.hpp"
 
@@ -272,11 +273,9 @@ std::string SnapshotWriter::write(int index, long step, double time, const Solve
         const ObstacleConfig& o = obstacles[k];
         std::vector<double> outline;
         if (o.shape == ObstacleShape::circle) {
-          constexpr int points = 360;
-          for (int v = 0; v < points; ++v) {
-            const double angle = 2 * M_PI * v / points;
-            outline.push_back(o.centre_x + o.radius * std::cos(angle));
-            outline.push_back(o.centre_y + o.radius * std::sin(angle));
+          for (const Point& p : circle_outline(o.centre_x, o.centre_y, o.radius, 360)) {
+            outline.push_back(p.x);
+            outline.push_back(p.y);
           }
         } else {
           for (size_t v = 0; v < o.vertices_x.size(); ++v) {

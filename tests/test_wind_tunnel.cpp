@@ -332,6 +332,35 @@ TEST(SignedDistance, AnObstacleReachingBeyondTheDomainIsItsPartInside) {
   fs::remove(by_hand);
 }
 
+// A circle that reaches beyond the domain is a polygon of 360 points clipped to it: centred on the
+// floor, the half disc of a points file (half_disc_points_file: 181 points a degree apart, its base
+// on the floor), the same signed distance; a circle within the domain stays a circle.
+TEST(SignedDistance, ACircleReachingBeyondTheDomainIsThePolygonOfItsPartInside) {
+  const std::string points = half_disc_points_file("half_disc_by_file", 2, 0.5);
+  auto tunnel_with = [](const std::string& obstacle) {
+    return parse_case(tunnel_case(kTunnelSides, kFreeStream + R"(, "obstacles": [)" + obstacle + "]"), "half.json");
+  };
+  const CaseConfig circle = tunnel_with(R"({"type": "circle", "centre": [2, 0], "radius": 0.5})");
+  const CaseConfig file = tunnel_with(R"({"type": "polygon", "file": ")" + points + R"("})");
+  const ObstacleConfig& half = circle.obstacles[0];
+  EXPECT_EQ(half.shape, ObstacleShape::polygon);
+  ASSERT_EQ(half.vertices_x.size(), 181u);  // 0 to 180 degrees; the base closes it
+  EXPECT_EQ(std::count(half.edge_side.begin(), half.edge_side.end(), int(bottom_side)), 1);
+  EXPECT_NEAR(half.reference_length, 1.0, 1e-12);  // the diameter, along the flow
+  const HostObstacleSet from_circle = make_host_obstacle_set(circle.obstacles);
+  const HostObstacleSet from_file = make_host_obstacle_set(file.obstacles);
+  for (double x = 1; x <= 3; x += 0.05)
+    for (double y = 0; y <= 1; y += 0.05) {
+      const SignedDistance a = from_circle(x, y), b = from_file(x, y);
+      EXPECT_NEAR(a.distance, b.distance, 1e-12) << x << ", " << y;
+      EXPECT_NEAR(a.normal_x, b.normal_x, 1e-9) << x << ", " << y;
+      EXPECT_NEAR(a.normal_y, b.normal_y, 1e-9) << x << ", " << y;
+    }
+  EXPECT_EQ(tunnel_with(R"({"type": "circle", "centre": [2, 1], "radius": 0.5})").obstacles[0].shape,
+            ObstacleShape::circle);
+  fs::remove(points);
+}
+
 TEST(SignedDistance, NodesOnAFaceAlongAGridLineAreInsideWithTheFacesNormal) {
   const CaseConfig config = parse_case(
       tunnel_case(kTunnelSides, kFreeStream + R"(, "obstacles": [{"type": "rectangle", "x": [0.6, 2.3], "y": [0, 0.7]}])"),
@@ -421,9 +450,9 @@ TEST_F(GeometryErrors, BadLineInPointsFile) {
 
 TEST_F(GeometryErrors, ObstacleOutsideTheDomain) {
   const std::string e = error_of(tunnel_case(
-      kTunnelSides, kFreeStream + R"(, "obstacles": [{"type": "circle", "centre": [3.9, 1], "radius": 0.25}])"));
-  EXPECT_NE(e.find("/obstacles/0 (circle): expected an obstacle inside the domain [0, 4] x [0, 2]; its bounding "
-                   "box is [3.65, 4.15] x [0.75, 1.25]"),
+      kTunnelSides, kFreeStream + R"(, "obstacles": [{"type": "circle", "centre": [4.5, 1], "radius": 0.25}])"));
+  EXPECT_NE(e.find("/obstacles/0 (circle) reaching beyond the domain, as a polygon of 360 points: expected an "
+                   "obstacle reaching into the domain [0, 4] x [0, 2]; it lies wholly outside it"),
             std::string::npos)
       << e;
 }
