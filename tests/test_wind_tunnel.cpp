@@ -290,6 +290,19 @@ TEST(SignedDistance, AnEdgeOnASideOfTheDomainIsNoSurface) {
 // normal came from the node's difference to its nearest point, round-off for a node on the face
 // ((0, 1) or (0, -1) for nodes on the step's front face), and the sign of the distance with it
 // (some nodes on the step's top inside, some out).
+// Two obstacle sets give the same signed distance (to 1e-12) and normal (to 1e-9) on a lattice of
+// spacing `step` over [x0, x1] x [y0, y1].
+void expect_same_signed_distance(const HostObstacleSet& first, const HostObstacleSet& second, double x0, double x1,
+                                 double y0, double y1, double step) {
+  for (double x = x0; x <= x1; x += step)
+    for (double y = y0; y <= y1; y += step) {
+      const SignedDistance a = first(x, y), b = second(x, y);
+      EXPECT_NEAR(a.distance, b.distance, 1e-12) << x << ", " << y;
+      EXPECT_NEAR(a.normal_x, b.normal_x, 1e-9) << x << ", " << y;
+      EXPECT_NEAR(a.normal_y, b.normal_y, 1e-9) << x << ", " << y;
+    }
+}
+
 // An obstacle that reaches beyond the domain is its part inside: a 30 degree ramp from (0.5, 0) run
 // out beyond the top and the right of the tunnel [0, 4] x [0, 2] is the polygon clipped to it, its
 // edges on the sides no surface, and its signed distance is that of the same part given by hand;
@@ -315,13 +328,7 @@ TEST(SignedDistance, AnObstacleReachingBeyondTheDomainIsItsPartInside) {
   EXPECT_EQ(o.edge_side, (std::vector<int>{-1, top_side, right_side, bottom_side}));
   const HostObstacleSet clipped_set = make_host_obstacle_set(clipped.obstacles);
   const HostObstacleSet given_set = make_host_obstacle_set(given.obstacles);
-  for (double x = 0; x <= 4; x += 0.1)
-    for (double y = 0; y <= 2; y += 0.1) {
-      const SignedDistance a = clipped_set(x, y), b = given_set(x, y);
-      EXPECT_NEAR(a.distance, b.distance, 1e-12) << x << ", " << y;
-      EXPECT_NEAR(a.normal_x, b.normal_x, 1e-9) << x << ", " << y;
-      EXPECT_NEAR(a.normal_y, b.normal_y, 1e-9) << x << ", " << y;
-    }
+  expect_same_signed_distance(clipped_set, given_set, 0, 4, 0, 2, 0.1);
   EXPECT_NEAR(clipped_set(2, 0.5).distance, -((2 - 0.5) * tan30 - 0.5) * std::cos(3.14159265358979323846 / 6), 1e-12);
   const CaseConfig block = parse_case(
       tunnel_case(kTunnelSides, kFreeStream + R"(, "obstacles": [{"type": "rectangle", "x": [3, 5], "y": [-1, 0.5]}])"),
@@ -349,13 +356,7 @@ TEST(SignedDistance, ACircleReachingBeyondTheDomainIsThePolygonOfItsPartInside) 
   EXPECT_NEAR(half.reference_length, 1.0, 1e-12);  // the diameter, along the flow
   const HostObstacleSet from_circle = make_host_obstacle_set(circle.obstacles);
   const HostObstacleSet from_file = make_host_obstacle_set(file.obstacles);
-  for (double x = 1; x <= 3; x += 0.05)
-    for (double y = 0; y <= 1; y += 0.05) {
-      const SignedDistance a = from_circle(x, y), b = from_file(x, y);
-      EXPECT_NEAR(a.distance, b.distance, 1e-12) << x << ", " << y;
-      EXPECT_NEAR(a.normal_x, b.normal_x, 1e-9) << x << ", " << y;
-      EXPECT_NEAR(a.normal_y, b.normal_y, 1e-9) << x << ", " << y;
-    }
+  expect_same_signed_distance(from_circle, from_file, 1, 3, 0, 1, 0.05);
   EXPECT_EQ(tunnel_with(R"({"type": "circle", "centre": [2, 1], "radius": 0.5})").obstacles[0].shape,
             ObstacleShape::circle);
   fs::remove(points);
