@@ -259,17 +259,14 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
   obstacle.shape = r.choice<ObstacleShape>("type");
   obstacle.description = where + " (" + to_string(obstacle.shape) + ")";
   r.optional_number("reference_length", obstacle.reference_length, Bounds::positive());
-  double x_lo, x_hi, y_lo, y_hi;  // bounding box
-  Polygon polygon;                 // the outline of any but a circle within the domain
+  Polygon polygon;  // the outline of any but a circle within the domain
   if (obstacle.shape == ObstacleShape::circle) {
     const auto centre = read_pair(r, "centre", "an array [x, y] of two numbers");
     obstacle.centre_x = centre.first;
     obstacle.centre_y = centre.second;
     obstacle.radius = r.number("radius", Bounds::positive());
-    x_lo = centre.first - obstacle.radius;
-    x_hi = centre.first + obstacle.radius;
-    y_lo = centre.second - obstacle.radius;
-    y_hi = centre.second + obstacle.radius;
+    const double x_lo = centre.first - obstacle.radius, x_hi = centre.first + obstacle.radius;
+    const double y_lo = centre.second - obstacle.radius, y_hi = centre.second + obstacle.radius;
     // A circle that reaches beyond the domain (a half cylinder on a symmetry wall, a bump in a
     // floor) is a polygon, clipped to the domain below, whose edges on the sides are no surface:
     // the signed distance of a whole circle knows no side. (Tried with the circle's own distance:
@@ -334,25 +331,14 @@ ObstacleConfig read_obstacle(ObjectReader& r, const std::string& where, const Do
                           " is one piece; clipped to it, " + pieces + " (give each piece as an obstacle of its own)");
       polygon = inside;
     }
-    x_lo = y_lo = std::numeric_limits<double>::infinity();
-    x_hi = y_hi = -x_lo;
     for (const Point& v : polygon) {
       obstacle.vertices_x.push_back(v.x);
       obstacle.vertices_y.push_back(v.y);
-      x_lo = std::min(x_lo, v.x);
-      x_hi = std::max(x_hi, v.x);
-      y_lo = std::min(y_lo, v.y);
-      y_hi = std::max(y_hi, v.y);
     }
   }
   r.finish();
-  // A circle may touch the domain's edges but not reach beyond them (a polygon is clipped, above).
+  // (Every obstacle now lies within the domain, up to round-off: one reaching beyond it is clipped.)
   const double tolerance = domain_tolerance(domain);
-  if (x_lo < domain.x_min - tolerance || x_hi > domain.x_max + tolerance || y_lo < domain.y_min - tolerance ||
-      y_hi > domain.y_max + tolerance)
-    throw ConfigError(r.source() + ": " + obstacle.description + ": expected an obstacle inside the domain " +
-                      describe_box(domain.x_min, domain.x_max, domain.y_min, domain.y_max) + "; its bounding box is " +
-                      describe_box(x_lo, x_hi, y_lo, y_hi));
   // The coefficients' length, of the obstacle as the case gives it (its part inside the domain).
   obstacle.reference_length = obstacle_reference_length(obstacle, flow_direction.first, flow_direction.second);
   // An edge on a side of the domain is not a surface the gas meets (the signed distance puts the
