@@ -1085,7 +1085,8 @@ def godunov_error(args):
     centres = x_lo + (np.arange(cells) + 0.5) * h
     is_left = centres < left["x"][1]
     density = np.where(is_left, left["density"], right["density"]).astype(float)
-    velocity = np.where(is_left, left["velocity"][0], right["velocity"][0]).astype(float)
+    # A state's velocity is optional (at rest) in a case file, and the effective case keeps regions as written.
+    velocity = np.where(is_left, left.get("velocity", [0, 0])[0], right.get("velocity", [0, 0])[0]).astype(float)
     pressure = np.where(is_left, left["pressure"], right["pressure"]).astype(float)
     conserved = np.array([density, density * velocity, pressure / (g - 1) + 0.5 * density * velocity**2])
     t, steps = 0.0, 0
