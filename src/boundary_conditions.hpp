@@ -7,6 +7,7 @@
 #include "case_config.hpp"
 #include "geometry.hpp"
 #include "grid.hpp"
+#include "halo_exchange.hpp"
 #include "parallel.hpp"
 #include "particles.hpp"
 
@@ -87,8 +88,10 @@ struct DomainBox {
 //   f_i -= p_out n \int_side N_i ds (a free stream at rest is in equilibrium either way); its mass
 //   as inertia of those nodes, whose acceleration is f / (m + m_outside);
 // - slip wall: the wall-normal component is removed.
-// Then, on nodes inside an obstacle, the normal component is removed (eqs. 21-22 remove only its
-// inward part: boundary_conditions.cpp says why not).
+// Before them, on the nodes within reach of an obstacle, the body presses on the gas with the
+// gas's pressure on what the particles leave uncovered (ObstaclePressureNodes; ObstaclePressure in
+// boundary_conditions.cpp says why). After them, on nodes inside an obstacle, the normal component
+// is removed (eqs. 21-22 remove only its inward part: boundary_conditions.cpp says why not).
 // The force the gas exerts on each obstacle (case order) in one step, as the grid transmits it,
 // summed over the nodes this slab owns.
 struct ObstacleForces {
@@ -150,6 +153,9 @@ struct PressureSideNodes {
                     const GasState& free_stream);
 
   KOKKOS_INLINE_FUNCTION static index_t nodes_along(index_t cells) { return cells + 1 + 2 * GridSlab::ghost_layers; }
+  KOKKOS_INLINE_FUNCTION index_t entry_of(const GridGeometry& geometry, index_t node) const {
+    return entry(geometry.node_i_of(node), geometry.node_j_of(node));
+  }
   KOKKOS_INLINE_FUNCTION index_t entry(index_t i, index_t j) const {
     int slot;
     return entry(i, j, slot);
@@ -186,6 +192,34 @@ struct PressureSideNodes {
   }
 };
 
+// The nodes where the obstacles press on the gas with its pressure (ObstacleGrid::body_nodes, less
+// the nodes a pressure side holds, whose gauge stands for all the space its particles leave
+// uncovered: PressureSideNodes). Node k: nodes(k), the obstacle nearest it (-1 where another slab
+// owns the node), and entries 2 k, 2 k + 1 of the particles' volume gradients g = sum_p (M / rho)
+// grad phi on it, in units of `unit` like PressureSideNodes' (the same bits in any order);
+// entry(node) of a local node is 2 k, or -1.
+struct ObstaclePressureNodes {
+  IndexView nodes, obstacle;
+  Kokkos::View<int*, DeviceType> entry;  // by local node
+  index_t count = 0;
+  real_t unit = 0, inverse_unit = 0;
+  // The particles whose stencils may hold such a node: those in this box (the nodes' box widened by
+  // two cells; empty, min above max, where there are none).
+  real_t x_min = 1, x_max = 0, y_min = 1, y_max = 0;
+
+  ObstaclePressureNodes() = default;
+  ObstaclePressureNodes(const GridSlab& slab, const ObstacleGrid& obstacles, const PressureSideNodes& side_nodes);
+
+  KOKKOS_INLINE_FUNCTION index_t entry_of(const GridGeometry&, index_t node) const { return entry(node); }
+  KOKKOS_INLINE_FUNCTION bool within_reach(real_t x, real_t y) const {
+    return (x >= x_min) & (x <= x_max) & (y >= y_min) & (y <= y_max);
+  }
+  KOKKOS_INLINE_FUNCTION long long units(real_t length) const {
+    const real_t scaled = length * inverse_unit;
+    return static_cast<long long>(scaled >= 0 ? scaled + real_t(0.5) : scaled - real_t(0.5));
+  }
+};
+
 class GridBoundaryConditions {
  public:
   GridBoundaryConditions() = default;
@@ -208,6 +242,16 @@ class GridBoundaryConditions {
   const Kokkos::View<long long*, DeviceType>& pressure_side_gradients() const { return pressure_side_gradients_; }
   void clear_pressure_side_gradients() const;
   void sum_pressure_side_gradients(const ParallelContext& context) const;
+  // The same for the obstacles' nodes (ObstaclePressureNodes), summed over the slabs that share a
+  // node through `halo` (collective: every slab of a case with obstacles calls it), with two columns
+  // of `scratch`, a node field step 5 overwrites, as buffer.
+  bool has_obstacles() const { return obstacles_.num_obstacles > 0; }
+  const ObstaclePressureNodes& obstacle_pressure_nodes() const { return obstacle_pressure_nodes_; }
+  const Kokkos::View<long long*, DeviceType>& obstacle_pressure_gradients() const {
+    return obstacle_pressure_gradients_;
+  }
+  void clear_obstacle_pressure_gradients() const;
+  void sum_obstacle_pressure_gradients(const HaloExchange& halo, const NodeFieldsView& scratch) const;
 
  private:
   GridSlab slab_;
@@ -220,6 +264,8 @@ class GridBoundaryConditions {
   PressureSideNodes pressure_side_nodes_;
   Kokkos::View<long long*, DeviceType> pressure_side_gradients_;
   Kokkos::View<long long*, DeviceType>::HostMirror pressure_side_gradients_host_;
+  ObstaclePressureNodes obstacle_pressure_nodes_;
+  Kokkos::View<long long*, DeviceType> obstacle_pressure_gradients_;
 };
 
 // A particle's cell, which the next step's kernels start from: its local cell, or left_the_domain

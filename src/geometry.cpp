@@ -345,7 +345,7 @@ RealView node_gas_volumes(const HostObstacleSet& obstacles, const std::vector<re
 }  // namespace
 
 ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, const GridSlab& slab,
-                                const BoundaryConfig& sides) {
+                                const BoundaryConfig& sides, ShapeFunction shape) {
   ObstacleGrid grid;
   const HostObstacleSet host = make_host_obstacle_set(obstacles);
   grid.obstacles = copy_to_device(host);
@@ -388,6 +388,8 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
     grid.obstacle_nodes = IndexView("obstacle_nodes", 0);
     grid.obstacle_normals = NodeFieldsView("obstacle_normals", 0, ObstacleGrid::num_columns);
     grid.obstacle_of_node = IndexView("obstacle_of_node", 0);
+    grid.body_nodes = IndexView("body_nodes", 0);
+    grid.body_node_obstacle = IndexView("body_node_obstacle", 0);
     return grid;
   }
   grid.obstacle_nodes = IndexView("obstacle_nodes", nodes.size());
@@ -411,6 +413,22 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
     of_node_host(k) = owned.contains(i, j) ? host(geo.node_x(i), geo.node_y(j)).obstacle : -1;
   }
   Kokkos::deep_copy(grid.obstacle_of_node, of_node_host);
+
+  {
+    // The basis function's reach (the hat's cell, the B-spline's cell and a half) and half a cell
+    // beyond, where the particles beside a body end, along each axis.
+    const real_t reach = (shape == ShapeFunction::bspline ? real_t(2) : real_t(1.5)) *
+                         std::sqrt(geo.spacing_x * geo.spacing_x + geo.spacing_y * geo.spacing_y);
+    std::vector<index_t> band_nodes, band_obstacle;
+    for (index_t node = 0; node < geo.num_nodes(); ++node) {
+      if (!(std::abs(node_distance[node]) < reach)) continue;
+      const index_t i = geo.node_i_of(node), j = geo.node_j_of(node);
+      band_nodes.push_back(node);
+      band_obstacle.push_back(owned.contains(i, j) ? host(geo.node_x(i), geo.node_y(j)).obstacle : -1);
+    }
+    grid.body_nodes = to_device_indices("body_nodes", band_nodes);
+    grid.body_node_obstacle = to_device_indices("body_node_obstacle", band_obstacle);
+  }
 
   // The signed distance is 1-Lipschitz, so inside a cell it differs from a corner value by at most
   // the cell diagonal: a cell whose corners are all farther than that holds no obstacle point.

@@ -212,13 +212,22 @@ struct ObstacleGrid {
   // Of obstacle_nodes(k): the obstacle (case order) whose surface is nearest, or -1 where this
   // slab does not own the node (each node's reaction is counted by one rank).
   IndexView obstacle_of_node;
+  // The nodes within reach of an obstacle's surface, inside or out: those whose basis functions
+  // (the bilinear hat, whose averages over a particle's domain are GIMP's weights, or the quadratic
+  // B-spline) reach to within half a cell of it, where the particles beside it end; in increasing
+  // order, and of each the obstacle whose surface is nearest, or -1 where this slab does not own
+  // the node. The bodies press on the gas there with its pressure (boundary_conditions.cpp,
+  // ObstaclePressure).
+  IndexView body_nodes;
+  IndexView body_node_obstacle;
   int num_obstacles = 0;
 
   index_t num_obstacle_nodes() const { return static_cast<index_t>(obstacle_nodes.extent(0)); }
 };
 
 // `sides`: the boundaries of the domain's sides (node_gas_volume leaves far-field sides out).
+// `shape`: the case's shape function (body_nodes).
 ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, const GridSlab& slab,
-                                const BoundaryConfig& sides);
+                                const BoundaryConfig& sides, ShapeFunction shape = ShapeFunction::gimp);
 
 }  // namespace mpmflow

@@ -43,6 +43,13 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
                                                    conditions.pressure_side_gradients());
       conditions.sum_pressure_side_gradients(slab.context());
     }
+    if (conditions.has_obstacles()) {  // and of the obstacles' surface bands (on every slab: the sum is collective)
+      conditions.clear_obstacle_pressure_gradients();
+      transfers.add_obstacle_pressure_volume_gradients(particles, conditions.obstacle_pressure_nodes(),
+                                                       conditions.obstacle_pressure_gradients());
+      // (The acceleration columns: step 5 writes them next.)
+      conditions.sum_obstacle_pressure_gradients(slab.halo(), grid.per_unit_mass);
+    }
     conditions.apply_to_momentum_and_force(grid.state, &s.obstacle_forces);
   }
   {  // 5. (mv)' = mv + dt f; V-bar = (mv)' / m and A = f / m on the nodes; the momentum columns

@@ -32,7 +32,7 @@ SlabState::SlabState(const CaseConfig& config, const ParallelContext& context, c
       fields_(slab.geometry),
       // The widest node fields summed over slabs: the step's state, or the output projection.
       halo_(slab, context, std::max<int>(GridFields::num_state_columns, GridFields::num_projection_columns)),
-      obstacles_(make_obstacle_grid(config.obstacles, slab, acting_boundaries(config))),
+      obstacles_(make_obstacle_grid(config.obstacles, slab, acting_boundaries(config), config.numerics.shape_function)),
       grid_boundaries_(config, slab, obstacles_),
       particle_boundaries_(config, slab, obstacles_) {
   fields_.set_conditioned_nodes(grid_boundaries_.conditioned_nodes(slab.owned_nodes_with_outer_ghosts()));

@@ -398,8 +398,45 @@ GimpShape make_shape<GimpShape>(const CaseConfig& config, const GridGeometry& ge
 
 // ---- The pressure sides' volume gradients ----------------------------------------------------
 
-// TransferKernels::add_pressure_side_volume_gradients with the case's shape. Through a ScatterView
-// of integers: their sums are the same in any order (PressureSideNodes).
+// What a particle adds to the volume gradients g_i = sum_p (M / rho) grad phi_i of the nodes that
+// `Nodes` numbers (PressureSideNodes, ObstaclePressureNodes: entry_of and units), through a
+// ScatterView of integers: their sums are the same in any order.
+template <class Shape, class Nodes>
+struct AddVolumeGradients {
+  Shape shape;
+  Nodes nodes;
+  GridGeometry geometry;
+  RealView x, y, mass, density;
+  IndexView cell;
+  decltype(Kokkos::Experimental::create_scatter_view(std::declval<Kokkos::View<long long*, DeviceType>>())) scatter;
+  KOKKOS_INLINE_FUNCTION void operator()(const index_t p) const {
+    const auto stencil = shape(p, cell(p), x(p), y(p));
+    const real_t volume = mass(p) / density(p);
+    auto access = scatter.access();
+    for (int k = 0; k < stencil.size; ++k) {
+      const index_t entry = nodes.entry_of(geometry, stencil.node(k));
+      if (entry < 0) continue;
+      access(entry) += nodes.units(volume * stencil.grad_x(k));
+      access(entry + 1) += nodes.units(volume * stencil.grad_y(k));
+    }
+  }
+};
+
+template <class Shape, class Nodes>
+AddVolumeGradients<Shape, Nodes> volume_gradients_adder(const Shape& shape, const ParticleState& pt, const Nodes& nodes,
+                                                        const Kokkos::View<long long*, DeviceType>& gradients) {
+  return {shape,       nodes,   shape.grid.geometry, pt.position_x, pt.position_y, pt.mass, pt.density, pt.cell,
+          Kokkos::Experimental::create_scatter_view(gradients)};
+}
+
+template <class Adder>
+void contribute_volume_gradients(const Adder& adder, const Kokkos::View<long long*, DeviceType>& gradients) {
+  Kokkos::View<long long*, DeviceType> target = gradients;  // (contribute takes the View by non-const reference)
+  auto scatter = adder.scatter;
+  Kokkos::Experimental::contribute(target, scatter);
+}
+
+// TransferKernels::add_pressure_side_volume_gradients with the case's shape.
 template <class Shape>
 void sum_pressure_side_volume_gradients(const Shape& shape, const ParticleState& pt, const PressureSideNodes& nodes,
                                         const Kokkos::View<long long*, DeviceType>& gradients) {
@@ -408,22 +445,8 @@ void sum_pressure_side_volume_gradients(const Shape& shape, const ParticleState&
   bool across_x = false, across_y = false;
   for (int k = 0; k < num_sides; ++k) across_x |= nodes.depth_x[k] != 0, across_y |= nodes.depth_y[k] != 0;
   if (!(across_x || across_y) || pt.count == 0) return;  // no crossed side
-  const RealView x = pt.position_x, y = pt.position_y, mass = pt.mass, density = pt.density;
-  const IndexView cell = pt.cell;
-  const GridGeometry geometry = shape.grid.geometry;
-  auto scatter = Kokkos::Experimental::create_scatter_view(gradients);
-  const auto add_particle = KOKKOS_LAMBDA(const index_t p) {
-    const auto stencil = shape(p, cell(p), x(p), y(p));
-    const real_t volume = mass(p) / density(p);
-    auto access = scatter.access();
-    for (int k = 0; k < stencil.size; ++k) {
-      const index_t node = stencil.node(k);
-      const index_t entry = nodes.entry(geometry.node_i_of(node), geometry.node_j_of(node));
-      if (entry < 0) continue;
-      access(entry) += nodes.units(volume * stencil.grad_x(k));
-      access(entry + 1) += nodes.units(volume * stencil.grad_y(k));
-    }
-  };
+  const RealView x = pt.position_x, y = pt.position_y;
+  const auto add_particle = volume_gradients_adder(shape, pt, nodes, gradients);
   const char* label = "pressure_side_volume_gradients";
   if (!across_y)
     for_each_index_where(label, 0, pt.count, KOKKOS_LAMBDA(const index_t p) { return nodes.within_reach(x(p), 0); },
@@ -434,8 +457,20 @@ void sum_pressure_side_volume_gradients(const Shape& shape, const ParticleState&
   else
     for_each_index_where(label, 0, pt.count,
                          KOKKOS_LAMBDA(const index_t p) { return nodes.within_reach(x(p), y(p)); }, add_particle);
-  Kokkos::View<long long*, DeviceType> target = gradients;  // (contribute takes the View by non-const reference)
-  Kokkos::Experimental::contribute(target, scatter);
+  contribute_volume_gradients(add_particle, gradients);
+}
+
+// TransferKernels::add_obstacle_pressure_volume_gradients with the case's shape.
+template <class Shape>
+void sum_obstacle_pressure_volume_gradients(const Shape& shape, const ParticleState& pt,
+                                            const ObstaclePressureNodes& nodes,
+                                            const Kokkos::View<long long*, DeviceType>& gradients) {
+  if (nodes.count == 0 || pt.count == 0) return;
+  const RealView x = pt.position_x, y = pt.position_y;
+  const auto add_particle = volume_gradients_adder(shape, pt, nodes, gradients);
+  for_each_index_where("obstacle_pressure_volume_gradients", 0, pt.count,
+                       KOKKOS_LAMBDA(const index_t p) { return nodes.within_reach(x(p), y(p)); }, add_particle);
+  contribute_volume_gradients(add_particle, gradients);
 }
 
 // ---- How P2G accumulates ----------------------------------------------------------------------
@@ -625,6 +660,11 @@ class Transfers final : public TransferKernels {
   void add_pressure_side_volume_gradients(const ParticleState& pt, const PressureSideNodes& nodes,
                                           const Kokkos::View<long long*, DeviceType>& gradients) const override {
     sum_pressure_side_volume_gradients(current_shape(shape_, pt), pt, nodes, gradients);
+  }
+
+  void add_obstacle_pressure_volume_gradients(const ParticleState& pt, const ObstaclePressureNodes& nodes,
+                                              const Kokkos::View<long long*, DeviceType>& gradients) const override {
+    sum_obstacle_pressure_volume_gradients(current_shape(shape_, pt), pt, nodes, gradients);
   }
 
   index_t particles_in_doubt() const override {

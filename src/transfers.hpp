@@ -85,6 +85,11 @@ class TransferKernels {
   // units: a pass over the positions, the stencils only of the particles within reach of a side.
   virtual void add_pressure_side_volume_gradients(const ParticleState& particles, const PressureSideNodes& nodes,
                                                   const Kokkos::View<long long*, DeviceType>& gradients) const = 0;
+  // The same on the obstacles' surface bands (ObstaclePressureNodes), the stencils only of the
+  // particles in its box.
+  virtual void add_obstacle_pressure_volume_gradients(const ParticleState& particles,
+                                                      const ObstaclePressureNodes& nodes,
+                                                      const Kokkos::View<long long*, DeviceType>& gradients) const = 0;
 
   // The P2G accumulation in use ("automatic" resolved for this execution space).
   virtual P2GStrategy strategy() const = 0;
