@@ -1623,12 +1623,12 @@ TEST(WindTunnel, ASubsonicStreamLeavesThroughItsOutletUndisturbed) {
 // force: a cylinder of radius 0.25, a square on the grid's lines, and a rectangle off them (its
 // sides 0.1 to 0.35 of a cell off the lines, so that the particles, placed on sub-cell centres, end
 // short of two faces and over the other two). Checked at t = 0.1, 0.2, 0.3: the particles' speeds
-// below 0.15 and pressures within 0.9 to 1.1; the mean force on the body over the run within 0.5 %
-// of the pressure's push on one face. Seen: speeds at most 0.126, 3e-14 and 0.081, pressures 0.944
-// to 1.081, 1 and 0.968 to 1.020, forces 2e-14, 3e-16 and 5.1e-4. Before 2026-12-06, without the
-// bodies' pressure on the nodes their basis functions share with the gas (ObstaclePressure,
-// boundary_conditions.cpp), the gas ran along the walls from the corners and the curve: 0.81, 1.39
-// and 1.55 by t = 0.3, pressures 0.31 to 5.07, and the rectangle felt about 1.3e-2.
+// below 0.15 and pressures within 0.9 to 1.1; the mean force on the body over the run within 1 %
+// of the pressure's push on one face. Seen: speeds at most 0.097, 3e-14 and 0.069, pressures 0.964
+// to 1.097, 1 and 0.972 to 1.023, forces 6e-14, 3e-16 and 2.3e-3. Before 2026-12-06, without the
+// bodies' pressure on the nodes within their reach (ObstaclePressure, boundary_conditions.cpp),
+// the gas ran along the walls from the corners and the curve: 0.81, 1.39 and 1.55 by t = 0.3,
+// pressures 0.31 to 5.07, and the rectangle felt about 1.3e-2.
 TEST(Obstacles, GasAtRestRoundABodyStaysAtRest) {
   for (const char* obstacle : {R"({"type": "circle", "centre": [1, 1], "radius": 0.25})",
                                R"({"type": "rectangle", "x": [0.8, 1.2], "y": [0.8, 1.2]})",
