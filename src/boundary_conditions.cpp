@@ -422,8 +422,8 @@ void add_obstacle_forces(const ObstacleGrid& obstacles, const NodeFieldsView& st
 // points a cell), gas at rest still ran along a square off the grid's lines (1.06 by t = 0.3):
 // particles placed on sub-cell centres end on sub-cell lines, short of a body or over it. The
 // nodes are ObstacleGrid::body_nodes, within reach of the space beside a body (taking only those
-// whose basis functions reach into a body, the diamond's rear faces measured -5.5 % and -7.4 %
-// against -3.2 % and -0.6 %).
+// whose basis functions reach into a body, the diamond's rear faces measured -5.5 % and -7.4 %,
+// against -3.2 % and -3.0 % now).
 // What the gas gains the body loses (ObstaclePressureReaction); the energy budget counts the work
 // (conditioned_nodes).
 struct ObstaclePressure {
