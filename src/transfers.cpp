@@ -1,6 +1,7 @@
 #include "transfers.hpp"
 
 #include <type_traits>
+#include <utility>
 
 #include "gas_physics.hpp"
 #include "kernels/particle_sort.hpp"
@@ -396,7 +397,7 @@ GimpShape make_shape<GimpShape>(const CaseConfig& config, const GridGeometry& ge
                    geometry.spacing_y / (2 * config.particles.per_cell_y), RealView(), RealView()};
 }
 
-// ---- The pressure sides' volume gradients ----------------------------------------------------
+// ---- The pressure sides' and the obstacles' volume gradients ------------------------------------
 
 // What a particle adds to the volume gradients g_i = sum_p (M / rho) grad phi_i of the nodes that
 // `Nodes` numbers (PressureSideNodes, ObstaclePressureNodes: entry_of and units), through a
