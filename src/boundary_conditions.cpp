@@ -505,7 +505,8 @@ GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const G
       obstacle_pressure_gradients_("obstacle_pressure_gradients", 2 * obstacle_pressure_nodes_.count) {}
 
 ObstaclePressureNodes::ObstaclePressureNodes(const GridSlab& slab, const ObstacleGrid& obstacles,
-                                             const PressureSideNodes& side_nodes) {
+                                             const PressureSideNodes& side_nodes)
+    : GradientUnits(slab.cell_size()) {
   const GridGeometry& geo = slab.geometry;
   const auto band_nodes = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), obstacles.body_nodes);
   const auto band_obstacle = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), obstacles.body_node_obstacle);
@@ -516,9 +517,6 @@ ObstaclePressureNodes::ObstaclePressureNodes(const GridSlab& slab, const Obstacl
     if (side_nodes.entry(geo.node_i_of(node), geo.node_j_of(node)) < 0) kept.push_back(k);
   }
   count = static_cast<index_t>(kept.size());
-  // (PressureSideNodes' unit: 2^-40 of a cell.)
-  unit = slab.cell_size() / real_t(1099511627776.0);
-  inverse_unit = 1 / unit;
   entry = Kokkos::View<int*, DeviceType>("obstacle_pressure_entry", obstacles.num_obstacles > 0 ? geo.num_nodes() : 0);
   auto entry_host = Kokkos::create_mirror_view(entry);
   Kokkos::deep_copy(entry_host, -1);
@@ -553,13 +551,11 @@ ObstaclePressureNodes::ObstaclePressureNodes(const GridSlab& slab, const Obstacl
 
 PressureSideNodes::PressureSideNodes(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
                                      const GasState& free_stream)
-    : node_offset_x(slab.node_offset_x),
+    : GradientUnits(slab.cell_size()),
+      node_offset_x(slab.node_offset_x),
       node_offset_y(slab.node_offset_y),
       cells_x(slab.global_cells_x),
-      cells_y(slab.global_cells_y),
-      // 2^-40 of a cell: a gradient sum is at most a few cells' widths, far below 2^23 of them.
-      unit(slab.cell_size() / real_t(1099511627776.0)),
-      inverse_unit(1 / unit) {
+      cells_y(slab.global_cells_y) {
   const DomainBox domain(slab);
   for (int s = 0; s < num_sides; ++s) {
     if (!pressure_side(side_type[s])) continue;

@@ -114,6 +114,22 @@ struct SideConditionBands {
   void add(const IndexRange2D& nodes, SideCondition c, int axis);
 };
 
+// Lengths as integers of `unit`, 2^-40 of a cell (a volume-gradient sum is at most a few cells'
+// widths, far below 2^23 of them), so that sums of them are the same bits in any order: the
+// pressure sides' and the obstacles' volume gradients (PressureSideNodes, ObstaclePressureNodes).
+struct GradientUnits {
+  real_t unit = 0, inverse_unit = 0;
+
+  GradientUnits() = default;
+  explicit GradientUnits(real_t cell_size) : unit(cell_size / real_t(1099511627776.0)), inverse_unit(1 / unit) {}
+
+  // A length in units, rounded to the nearest.
+  KOKKOS_INLINE_FUNCTION long long units(real_t length) const {
+    const real_t scaled = length * inverse_unit;
+    return static_cast<long long>(scaled >= 0 ? scaled + real_t(0.5) : scaled - real_t(0.5));
+  }
+};
+
 // The nodes of the pressure sides (outflow, far field) on which the gas outside acts, and where
 // the particles' volume gradients g_i = sum_p (M / rho) grad phi_i are summed for it (SidePressure,
 // boundary_conditions.cpp): each such side's node line, the line inside it (the last particles
@@ -121,9 +137,9 @@ struct SideConditionBands {
 // beyond it, all along the side (the ghost nodes beyond its corners included); a node of two such
 // sides is the first's (left, right, bottom, top). Every slab numbers them alike, by global node:
 // entry(i, j) of local node (i, j) is the first of its two sums (x, y), or -1 where no pressure
-// side holds it. The sums are integers in units of `unit` (a length), so that they are the same
-// bits whatever the order of the particles, the threads and the ranks that add them.
-struct PressureSideNodes {
+// side holds it. The sums are integers (GradientUnits), so that they are the same bits whatever
+// the order of the particles, the threads and the ranks that add them.
+struct PressureSideNodes : GradientUnits {
   static constexpr int inner_layers = 1;  // node lines inside the side
   static constexpr int layers = inner_layers + 1 + GridSlab::ghost_layers;
   int count = 0;
@@ -141,7 +157,6 @@ struct PressureSideNodes {
   Kokkos::Array<index_t, num_sides> first_entry = {};
   index_t entries = 0;
   index_t node_offset_x = 0, node_offset_y = 0, cells_x = 0, cells_y = 0;
-  real_t unit = 0, inverse_unit = 0;
   // The particles whose stencils may hold a crossed side's nodes: those within reach of it, where
   // depth_x[k] x + depth_y[k] y + depth_c[k] (how deep inside crossed side k a point lies) is below
   // reach[k]; the other entries never hold (no crossed side there), so that the test runs over all
@@ -185,24 +200,18 @@ struct PressureSideNodes {
     for (int k = 0; k < num_sides; ++k) near |= depth_x[k] * x + depth_y[k] * y + depth_c[k] < reach[k];
     return near;
   }
-  // A length in units, rounded to the nearest.
-  KOKKOS_INLINE_FUNCTION long long units(real_t length) const {
-    const real_t scaled = length * inverse_unit;
-    return static_cast<long long>(scaled >= 0 ? scaled + real_t(0.5) : scaled - real_t(0.5));
-  }
 };
 
 // The nodes where the obstacles press on the gas with its pressure (ObstacleGrid::body_nodes, less
 // the nodes a pressure side holds, whose gauge stands for all the space its particles leave
 // uncovered: PressureSideNodes). Node k: nodes(k), the obstacle nearest it (-1 where another slab
 // owns the node), and entries 2 k, 2 k + 1 of the particles' volume gradients g = sum_p (M / rho)
-// grad phi on it, in units of `unit` like PressureSideNodes' (the same bits in any order);
-// entry(node) of a local node is 2 k, or -1.
-struct ObstaclePressureNodes {
+// grad phi on it, integers like PressureSideNodes' (GradientUnits); entry(node) of a local node is
+// 2 k, or -1.
+struct ObstaclePressureNodes : GradientUnits {
   IndexView nodes, obstacle;
   Kokkos::View<int*, DeviceType> entry;  // by local node
   index_t count = 0;
-  real_t unit = 0, inverse_unit = 0;
   // The particles whose stencils may hold such a node: those in this box (the nodes' box widened by
   // two cells; empty, min above max, where there are none).
   real_t x_min = 1, x_max = 0, y_min = 1, y_max = 0;
@@ -213,10 +222,6 @@ struct ObstaclePressureNodes {
   KOKKOS_INLINE_FUNCTION index_t entry_of(const GridGeometry&, index_t node) const { return entry(node); }
   KOKKOS_INLINE_FUNCTION bool within_reach(real_t x, real_t y) const {
     return (x >= x_min) & (x <= x_max) & (y >= y_min) & (y <= y_max);
-  }
-  KOKKOS_INLINE_FUNCTION long long units(real_t length) const {
-    const real_t scaled = length * inverse_unit;
-    return static_cast<long long>(scaled >= 0 ? scaled + real_t(0.5) : scaled - real_t(0.5));
   }
 };
 

@@ -353,7 +353,9 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   grid.cell_near_obstacle = IndexView("cell_near_obstacle", geo.num_cells());
   grid.num_obstacles = static_cast<int>(obstacles.size());
   // Evaluated once on the host at start-up (the obstacles are at rest); 1e30 without obstacles.
+  // With each node's nearest obstacle (case order), which the forces on each count by.
   std::vector<real_t> node_distance(geo.num_nodes());
+  std::vector<index_t> node_obstacle(geo.num_nodes());
   std::vector<index_t> nodes;
   std::vector<std::array<real_t, ObstacleGrid::num_columns>> rows;
   for (index_t j = 0; j < geo.nodes_y; ++j)
@@ -361,6 +363,7 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
       const SignedDistance sd = host(geo.node_x(i), geo.node_y(j));
       const index_t node = geo.node_index(i, j);
       node_distance[node] = sd.distance;
+      node_obstacle[node] = sd.obstacle;
       if (sd.distance > 0) continue;
       nodes.push_back(node);
       std::array<real_t, ObstacleGrid::num_columns> row{};
@@ -409,8 +412,7 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
   grid.obstacle_of_node = IndexView("obstacle_of_node", nodes.size());
   auto of_node_host = host_mirror(grid.obstacle_of_node);
   for (size_t k = 0; k < nodes.size(); ++k) {
-    const index_t i = geo.node_i_of(nodes[k]), j = geo.node_j_of(nodes[k]);
-    of_node_host(k) = owned.contains(i, j) ? host(geo.node_x(i), geo.node_y(j)).obstacle : -1;
+    of_node_host(k) = owned.contains(geo.node_i_of(nodes[k]), geo.node_j_of(nodes[k])) ? node_obstacle[nodes[k]] : -1;
   }
   Kokkos::deep_copy(grid.obstacle_of_node, of_node_host);
 
@@ -422,9 +424,8 @@ ObstacleGrid make_obstacle_grid(const std::vector<ObstacleConfig>& obstacles, co
     std::vector<index_t> band_nodes, band_obstacle;
     for (index_t node = 0; node < geo.num_nodes(); ++node) {
       if (!(std::abs(node_distance[node]) < reach)) continue;
-      const index_t i = geo.node_i_of(node), j = geo.node_j_of(node);
       band_nodes.push_back(node);
-      band_obstacle.push_back(owned.contains(i, j) ? host(geo.node_x(i), geo.node_y(j)).obstacle : -1);
+      band_obstacle.push_back(owned.contains(geo.node_i_of(node), geo.node_j_of(node)) ? node_obstacle[node] : -1);
     }
     grid.body_nodes = to_device_indices("body_nodes", band_nodes);
     grid.body_node_obstacle = to_device_indices("body_node_obstacle", band_obstacle);
