@@ -64,6 +64,11 @@ python3-numpy (scripts/setup.sh installs them).
       From diagnostics.csv: the drag and lift coefficients of an obstacle (the mean force between
       outputs over q_inf times its reference length) per output, their mean over the last K
       outputs, and a PNG of their history; with --min-drag / --max-drag, exits 1 outside them.
+  mpmflow_plot.py hot-particles OUTPUT_DIR [--times K] [--max-count N]
+      The particles of the last output hotter than K times (default 20) the free stream's
+      stagnation specific energy, (gamma e + |v|^2 / 2) / gamma, the most an adiabatic flow from the
+      free stream holds anywhere (a shock makes entropy, not energy): how many, their mass, the
+      hottest, and where they are; with --max-count, exits 1 when more than N are.
   mpmflow_plot.py mass-balance OUTPUT_DIR [--max-residual F]
       From diagnostics.csv: the mass in the domain against the initial mass plus what entered
       minus what left through the open sides, at every output; with --max-residual, exits 1 when
@@ -1127,6 +1132,28 @@ def energy_budget(row, first):
     return {name: value / e0 for name, value in term.items()}
 
 
+def hot_particles(args):
+    """Particles far hotter than any adiabatic flow from the free stream makes (its stagnation
+    energy): heat the numerics made (the near-vacuum of a blunt body's wake, README Status)."""
+    s = Snapshot(snapshot_files(args.output_dir)[-1])
+    if not s.free_stream:
+        sys.exit(f"mpmflow_plot: error: {s.path}: the case has no free_stream to take the stagnation energy from")
+    rho, p = float(s.free_stream["density"]), float(s.free_stream["pressure"])
+    speed = math.hypot(*s.free_stream.get("velocity", [0.0, 0.0])[:2])
+    stagnation = (p / rho * s.gamma / (s.gamma - 1) + speed * speed / 2) / s.gamma
+    e, m = s.particles["specific_energy"], s.particles["mass"]
+    hot = e > args.times * stagnation
+    count = int(np.count_nonzero(hot))
+    print(f"t = {s.time:.4f}: the free stream's stagnation energy {stagnation:.4g}; {count} of {e.size} particles "
+          f"above {args.times:g} times it ({np.sum(m[hot]) / np.sum(m):.2e} of the mass), the hottest at "
+          f"{np.max(e) / stagnation:.3g} times it")
+    if count:
+        print(f"  those particles at x {np.min(s.x[hot]):.3f} to {np.max(s.x[hot]):.3f}, "
+              f"y {np.min(s.y[hot]):.3f} to {np.max(s.y[hot]):.3f}")
+    return 1 if breaks_bound(f"particles above {args.times:g} times the stagnation energy", count, args.max_count,
+                             str) else 0
+
+
 def energy_balance(args):
     path, rows = read_diagnostics(args.output_dir)
     if not rows or "energy_boundary_work" not in rows[0]:
@@ -1257,6 +1284,10 @@ def main():
                        help="the particles between A and B cells from a face (default 0.5 3)")
     faces.add_argument("--max-pressure-error", type=float, help="largest relative error of a face's mean pressure")
     faces.add_argument("--max-median-error", type=float, help="largest relative error of a face's median pressure")
+    heat = sub.add_parser("hot-particles", help="particles far hotter than the free stream's stagnation energy")
+    heat.add_argument("output_dir")
+    heat.add_argument("--times", type=float, default=20.0, help="how many times the stagnation energy (20)")
+    heat.add_argument("--max-count", type=int)
     balance = sub.add_parser("mass-balance", help="the mass balance with the open sides, from diagnostics.csv")
     balance.add_argument("output_dir")
     balance.add_argument("--max-residual", type=float)
@@ -1300,6 +1331,8 @@ def main():
         sys.exit(oblique_shock(args))
     elif args.command == "shock-expansion":
         sys.exit(shock_expansion(args))
+    elif args.command == "hot-particles":
+        sys.exit(hot_particles(args))
     elif args.command == "mass-balance":
         sys.exit(mass_balance(args))
     elif args.command == "riemann-error":
