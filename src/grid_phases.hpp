@@ -1,9 +1,12 @@
 #pragma once
 // The node-by-node phases of an MPM step (Algorithm 1, steps 2 and 5, and the remapped velocity
 // step 10 interpolates): one kernel each over the slab's nodes.
+#include "gas_physics.hpp"
 #include "grid.hpp"
 
 namespace mpmflow {
+
+struct PressureSideNodes;  // boundary_conditions.hpp
 
 // 2. Zeroes the columns the step's P2Gs accumulate into.
 void reset_grid(const GridFields& fields);
@@ -36,18 +39,25 @@ void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, rea
 // the particles' volumes fill the space they are in, as they must. 1 (neutral) where the hat holds
 // less gas space than `smallest` (beyond the domain, a corner cut by a body, unknown at a far-field
 // side), which says little about the particles around it; at most 1 where the gas volume is
-// negative (next to a body: only a shortfall counts).
-KOKKOS_INLINE_FUNCTION real_t node_volume_fraction(real_t particle_volume, real_t gas_volume, real_t smallest) {
+// negative (next to a body: only a shortfall counts); unfilled_node_volume_fraction where the
+// particles fill less than least_corrected_volume_fraction of it (a free surface, a near-vacuum:
+// the particles whose stencils reach the node are then left alone), unless `gas_outside` (a
+// pressure side's node: the gas outside fills what the particles leave, and presses on them).
+KOKKOS_INLINE_FUNCTION real_t node_volume_fraction(real_t particle_volume, real_t gas_volume, real_t smallest,
+                                                   bool gas_outside) {
   const real_t space = gas_volume < 0 ? -gas_volume : gas_volume;
   if (!(space > smallest)) return 1;
   const real_t fraction = particle_volume / space;
+  if (fraction < least_corrected_volume_fraction && !gas_outside) return unfilled_node_volume_fraction;
   return gas_volume < 0 && fraction > 1 ? real_t(1) : fraction;
 }
 
 // The volume fraction of every node into GridFields::volume_fraction, and its particles'
 // volume-weighted mean pressure into GridFields::mean_pressure (0 without particle volume): what
 // the volume correction reads (volume_corrected_density).
-void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area);
+// On `slab`, whose pressure sides' nodes are `sides` (node_volume_fraction's gas_outside).
+void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, const GridSlab& slab,
+                             const PressureSideNodes& sides);
 
 // Copies the momentum and force columns of `state` (before step 4) or the remapped momentum
 // (before step 9) of the nodes the boundary conditions may change into `before_conditions`.

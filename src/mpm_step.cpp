@@ -84,7 +84,8 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     auto t = timers.scope(Phase::grid_remap_velocity);
     compute_remap_velocity(grid, mass_threshold, dt, settings.thermodynamics.energy_consistent);
     if (settings.thermodynamics.volume_correction)
-      compute_volume_fraction(grid, slab.obstacles().node_gas_volume, slab.slab().cell_area());
+      compute_volume_fraction(grid, slab.obstacles().node_gas_volume, slab.slab(),
+                              slab.grid_boundaries().pressure_side_nodes());
   }
   double work_of_conditions = 0;
   if (energy_budget) {
