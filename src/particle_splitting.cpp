@@ -13,15 +13,25 @@ namespace {
 struct SplitRule {
   ParticleBoundaries boundaries;
   real_t initial_half_x, initial_half_y, initial_volume;
+  real_t cell_x, cell_y;
 
   KOKKOS_INLINE_FUNCTION int axis(const ParticleState& pt, index_t p) const {
     return split_axis(pt.mass(p) / pt.density(p), initial_volume, pt.domain_stretch_x(p), pt.domain_stretch_y(p));
   }
   // The centres of the pieces of a split along `a` (split_pieces(a) of them; the first the parent's),
-  // each the centre of its share of the parent's domain, kept in the domain.
+  // each the centre of its share of the parent's domain, but at most a cell from the parent's
+  // centre, and kept in the domain. Gas sheared along a body stretches domains into needles along
+  // the flow (42 times their placed length along the transonic aerofoil), far beyond the cell the
+  // GIMP weights see of them; pieces at the centres of such a needle's halves carried the mass of
+  // a wake particle many cells away: split particles upstream of the Mach 3 cylinder (2 to 24 ahead
+  // of x = 0.3 at each of six outputs, seeds 1 and 2) and at its nose, where they heated in the
+  // dense shock layer (specific energies up to 190; the stagnation energy is 5.0); at most a cell
+  // away, none upstream and the nose's hottest at 5 to 9 (README, Status).
   KOKKOS_INLINE_FUNCTION void pieces(const ParticleState& pt, index_t p, int a, real_t (&x)[4], real_t (&y)[4]) const {
-    const real_t quarter_x = initial_half_x * pt.domain_stretch_x(p) / 2;
-    const real_t quarter_y = initial_half_y * pt.domain_stretch_y(p) / 2;
+    const real_t half_share_x = initial_half_x * pt.domain_stretch_x(p) / 2;
+    const real_t half_share_y = initial_half_y * pt.domain_stretch_y(p) / 2;
+    const real_t quarter_x = half_share_x < cell_x ? half_share_x : cell_x;
+    const real_t quarter_y = half_share_y < cell_y ? half_share_y : cell_y;
     const real_t offset_x = a == 1 ? real_t(0) : quarter_x, offset_y = a == 0 ? real_t(0) : quarter_y;
     const int n = split_pieces(a);
     for (int k = 0; k < n; ++k) {
@@ -57,12 +67,14 @@ ParticleSplitting::ParticleSplitting(const CaseConfig& config, const GridSlab& s
       initial_half_x_(slab.geometry.spacing_x / (2 * config.particles.per_cell_x)),
       initial_half_y_(slab.geometry.spacing_y / (2 * config.particles.per_cell_y)),
       initial_volume_(slab.geometry.spacing_x * slab.geometry.spacing_y /
-                      (config.particles.per_cell_x * config.particles.per_cell_y)) {}
+                      (config.particles.per_cell_x * config.particles.per_cell_y)),
+      cell_x_(slab.geometry.spacing_x),
+      cell_y_(slab.geometry.spacing_y) {}
 
 long long ParticleSplitting::split(ParticleState& particles, const ParticleBoundaries& boundaries,
                                    const ParallelContext& context) {
   if (!enabled_) return 0;
-  const SplitRule rule{boundaries, initial_half_x_, initial_half_y_, initial_volume_};
+  const SplitRule rule{boundaries, initial_half_x_, initial_half_y_, initial_volume_, cell_x_, cell_y_};
   const index_t count = particles.count;
   // The splitting particles in index order, counted and listed in one pass (select_indices, into
   // the list of the last splits, grown where it is too short). (In a scope of its own: `before`

@@ -9,8 +9,8 @@
 // once the domain outgrows a cell lets the particles of a near-vacuum drift apart first, each alone
 // in its stencil, which then sees no velocity gradient and no longer expands), along the axis its
 // domain has stretched more along: each half takes half the mass and half the domain, centred on
-// its half of the parent's domain, with the parent's velocity, density, specific energy and
-// pressure. A particle whose domain has stretched alike along both axes (to round-off:
+// its half of the parent's domain, but at most a cell from the parent's centre, with the parent's
+// velocity, density, specific energy and pressure. A particle whose domain has stretched alike along both axes (to round-off:
 // split_tie_tolerance) splits along both, in four quarters: a particle on a diagonal of a flow
 // symmetric about it (a blast in a square box, a 2D Riemann problem) is its own mirror image, and
 // halves along x, or y, broke the symmetry, a rule that picks x on a tie favouring one side (the
@@ -78,6 +78,7 @@ class ParticleSplitting {
   bool enabled_ = false;
   real_t initial_half_x_ = 0, initial_half_y_ = 0;  // a particle's domain at stretch 1
   real_t initial_volume_ = 0;                       // a cell over the particles per cell
+  real_t cell_x_ = 0, cell_y_ = 0;                  // the farthest a piece lies from its parent
   long long splits_ = 0;
   IndexView parent_;  // this step's splitting particles, in index order
   KeptBuffer<ParticleIdView> new_id_;  // their pieces' ids (the first of each parent's)

@@ -2,11 +2,12 @@
 # ctest: a square block in the Mach 3 cylinder's place (cases/cylinder_mach3.json, 200 x 100 cells,
 # the block [0.4, 0.8] x [0.8, 1.2], t = 1.5): its wake's gas stays within twenty times the free
 # stream's stagnation energy (5.0), the most an adiabatic flow from the free stream holds anywhere,
-# but for a few particles (at most 60 of about 230,000; mpmflow_plot.py hot-particles). Seen: 12,
-# the hottest 50 times it. Until 2026-12-06 the volume correction expanded the particles at the
-# edge of the near-vacuum behind the block at every step (gas_physics.hpp, unfilled_node_volume_
-# fraction), and the flow compressed them again: 332 particles above it, the hottest 2068 times
-# it, and the hot gas's sound speeds took 2272 steps to t = 1.5 (1283 now).
+# but for a few particles (at most 60 of about 230,000; mpmflow_plot.py hot-particles). Seen: 4,
+# the hottest 29 times it, in 1149 steps. Until 2026-12-06 the volume correction expanded the
+# particles at the edge of the near-vacuum behind the block at every step (gas_physics.hpp,
+# unfilled_node_volume_fraction), and the flow compressed them again: 332 particles above it, the
+# hottest 2068 times it, and the hot gas's sound speeds took 2272 steps to t = 1.5 (12, 50 times
+# and 1283 steps with that fixed, before split halves stayed within a cell of their parent).
 # Usage: blunt_body_wake.sh MPMFLOW_BINARY SOURCE_DIR WORK_DIR
 set -euo pipefail
 binary=$1 source_dir=$2 work_dir=$3

@@ -1380,6 +1380,47 @@ TEST(ParticleSplitting, AParticleStretchedAlikeAlongBothAxesSplitsInFourQuarters
   }
 }
 
+// A particle whose domain the gas has drawn into a needle (40 times its placed length along x, as
+// gas sheared along a body draws them) splits into halves at most a cell from its centre, not at
+// the centres of the needle's halves, 5 cells away: such halves of wake particles had landed ahead
+// of the Mach 3 cylinder and on its nose (particle_splitting.cpp, SplitRule::pieces). The halves
+// still take half the domain each.
+TEST(ParticleSplitting, ANeedleSplitsIntoHalvesAtMostACellApartFromItsCentre) {
+  WholeTunnel tunnel(tunnel_config());
+  ParticleState& particles = tunnel.particles;
+  const index_t n = particles.count;
+  auto host = [](const auto& view) { return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view); };
+  auto x = host(particles.position_x), y = host(particles.position_y), density = host(particles.density);
+  auto stretch_x = host(particles.domain_stretch_x);
+  index_t needle = -1;
+  for (index_t k = 0; k < n && needle < 0; ++k)
+    if (x(k) > 1.5 && x(k) < 2.5 && y(k) > 0.5 && y(k) < 1.5) needle = k;
+  ASSERT_GE(needle, 0);
+  density(needle) /= 3;
+  stretch_x(needle) = 40;
+  Kokkos::deep_copy(particles.density, density);
+  Kokkos::deep_copy(particles.domain_stretch_x, stretch_x);
+  const real_t x0 = x(needle), y0 = y(needle);
+  ParticleSplitting splitting(tunnel.config, tunnel.slab);
+  EXPECT_EQ(splitting.split(particles, tunnel.slab_state.particle_boundaries(), tunnel.slab_state.context()), 1);
+  ASSERT_EQ(particles.count, n + 1);
+  const auto after_id = host(particles.id);
+  const auto after_x = host(particles.position_x), after_y = host(particles.position_y);
+  const auto after_sx = host(particles.domain_stretch_x);
+  const real_t cell = tunnel.slab.geometry.spacing_x;  // 0.05; the needle's quarter length 0.25
+  std::vector<real_t> offsets;
+  for (index_t k = 0; k < particles.count; ++k)
+    if (after_id(k) < 0) {
+      offsets.push_back(after_x(k) - x0);
+      EXPECT_DOUBLE_EQ(after_y(k), y0);
+      EXPECT_DOUBLE_EQ(after_sx(k), 20.0);
+    }
+  ASSERT_EQ(offsets.size(), 2u);
+  std::sort(offsets.begin(), offsets.end());
+  EXPECT_NEAR(offsets[0], -cell, 1e-15);
+  EXPECT_NEAR(offsets[1], cell, 1e-15);
+}
+
 // ---- Memory at a growth ------------------------------------------------------------------------
 
 // When splitting makes the particle Views grow, each field's old storage goes as its new storage
