@@ -1319,6 +1319,20 @@ TEST(ParticleSplitting, AlongTheAxisStretchedMoreOrBothWhereTheStretchesAgree) {
   EXPECT_EQ(split_pieces(split_both_axes), 4);
 }
 
+// The splitting tests' host copies of the particle fields, and the first `count` particles within
+// [x0, x1] x [0.5, 1.5], well inside the tunnel (no piece clamped to its sides).
+template <class View>
+auto host_copy(const View& view) {
+  return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
+}
+std::vector<index_t> particles_inside(const ParticleState& particles, real_t x0, real_t x1, size_t count) {
+  const auto x = host_copy(particles.position_x), y = host_copy(particles.position_y);
+  std::vector<index_t> chosen;
+  for (index_t k = 0; k < particles.count && chosen.size() < count; ++k)
+    if (x(k) > x0 && x(k) < x1 && y(k) > 0.5 && y(k) < 1.5) chosen.push_back(k);
+  return chosen;
+}
+
 // A particle stretched alike along both axes splits in four quarters, the mirror image of itself
 // about its own diagonals; one stretched more along x in two halves along x. Ids: the parents in
 // id order, a split in four taking two split numbers.
@@ -1326,14 +1340,10 @@ TEST(ParticleSplitting, AParticleStretchedAlikeAlongBothAxesSplitsInFourQuarters
   WholeTunnel tunnel(tunnel_config());
   ParticleState& particles = tunnel.particles;
   const index_t n = particles.count;
-  auto host = [](const auto& view) { return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view); };
-  auto x = host(particles.position_x), y = host(particles.position_y), density = host(particles.density);
-  auto stretch_x = host(particles.domain_stretch_x), mass = host(particles.mass);
-  const auto id = host(particles.id);
-  // Two particles well inside the tunnel (no clamping to its sides).
-  std::vector<index_t> chosen;
-  for (index_t k = 0; k < n && chosen.size() < 2; ++k)
-    if (x(k) > 1 && x(k) < 3 && y(k) > 0.5 && y(k) < 1.5) chosen.push_back(k);
+  auto x = host_copy(particles.position_x), y = host_copy(particles.position_y), density = host_copy(particles.density);
+  auto stretch_x = host_copy(particles.domain_stretch_x), mass = host_copy(particles.mass);
+  const auto id = host_copy(particles.id);
+  const std::vector<index_t> chosen = particles_inside(particles, 1, 3, 2);
   ASSERT_EQ(chosen.size(), 2u);
   const index_t four = chosen[0], two = chosen[1];
   density(four) /= 3, density(two) /= 3;
@@ -1349,10 +1359,10 @@ TEST(ParticleSplitting, AParticleStretchedAlikeAlongBothAxesSplitsInFourQuarters
   // The ids: the parent with the smaller id numbers first.
   const bool four_first = id(four) < id(two);
   const long long first_of_four = four_first ? -1 : -3, first_of_two = four_first ? -5 : -1;
-  const auto after_id = host(particles.id);
-  const auto after_x = host(particles.position_x), after_y = host(particles.position_y);
-  auto after_mass = host(particles.mass), after_sx = host(particles.domain_stretch_x);
-  auto after_sy = host(particles.domain_stretch_y);
+  const auto after_id = host_copy(particles.id);
+  const auto after_x = host_copy(particles.position_x), after_y = host_copy(particles.position_y);
+  auto after_mass = host_copy(particles.mass), after_sx = host_copy(particles.domain_stretch_x);
+  auto after_sy = host_copy(particles.domain_stretch_y);
   std::map<long long, index_t> index_of;
   for (index_t k = 0; k < particles.count; ++k) index_of[after_id(k)] = k;
   // A placed particle's domain is half of a cell over 2 particles: 0.025; a quarter's centre lies
@@ -1389,13 +1399,12 @@ TEST(ParticleSplitting, ANeedleSplitsIntoHalvesAtMostACellApartFromItsCentre) {
   WholeTunnel tunnel(tunnel_config());
   ParticleState& particles = tunnel.particles;
   const index_t n = particles.count;
-  auto host = [](const auto& view) { return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view); };
-  auto x = host(particles.position_x), y = host(particles.position_y), density = host(particles.density);
-  auto stretch_x = host(particles.domain_stretch_x);
-  index_t needle = -1;
-  for (index_t k = 0; k < n && needle < 0; ++k)
-    if (x(k) > 1.5 && x(k) < 2.5 && y(k) > 0.5 && y(k) < 1.5) needle = k;
-  ASSERT_GE(needle, 0);
+  // (Within [1.5, 2.5]: the needle's quarter length, 0.25, stays inside the tunnel.)
+  const std::vector<index_t> inside = particles_inside(particles, 1.5, 2.5, 1);
+  ASSERT_EQ(inside.size(), 1u);
+  const index_t needle = inside[0];
+  auto x = host_copy(particles.position_x), y = host_copy(particles.position_y);
+  auto density = host_copy(particles.density), stretch_x = host_copy(particles.domain_stretch_x);
   density(needle) /= 3;
   stretch_x(needle) = 40;
   Kokkos::deep_copy(particles.density, density);
@@ -1404,9 +1413,9 @@ TEST(ParticleSplitting, ANeedleSplitsIntoHalvesAtMostACellApartFromItsCentre) {
   ParticleSplitting splitting(tunnel.config, tunnel.slab);
   EXPECT_EQ(splitting.split(particles, tunnel.slab_state.particle_boundaries(), tunnel.slab_state.context()), 1);
   ASSERT_EQ(particles.count, n + 1);
-  const auto after_id = host(particles.id);
-  const auto after_x = host(particles.position_x), after_y = host(particles.position_y);
-  const auto after_sx = host(particles.domain_stretch_x);
+  const auto after_id = host_copy(particles.id);
+  const auto after_x = host_copy(particles.position_x), after_y = host_copy(particles.position_y);
+  const auto after_sx = host_copy(particles.domain_stretch_x);
   const real_t cell = tunnel.slab.geometry.spacing_x;  // 0.05; the needle's quarter length 0.25
   std::vector<real_t> offsets;
   for (index_t k = 0; k < particles.count; ++k)
