@@ -28,11 +28,10 @@ struct SplitRule {
   // dense shock layer (specific energies up to 190; the stagnation energy is 5.0); at most a cell
   // away, none upstream and the nose's hottest at 5 to 9 (README, Status).
   KOKKOS_INLINE_FUNCTION void pieces(const ParticleState& pt, index_t p, int a, real_t (&x)[4], real_t (&y)[4]) const {
-    const real_t half_share_x = initial_half_x * pt.domain_stretch_x(p) / 2;
-    const real_t half_share_y = initial_half_y * pt.domain_stretch_y(p) / 2;
-    const real_t quarter_x = half_share_x < cell_x ? half_share_x : cell_x;
-    const real_t quarter_y = half_share_y < cell_y ? half_share_y : cell_y;
-    const real_t offset_x = a == 1 ? real_t(0) : quarter_x, offset_y = a == 0 ? real_t(0) : quarter_y;
+    const real_t quarter_x = initial_half_x * pt.domain_stretch_x(p) / 2;  // of the domain's length
+    const real_t quarter_y = initial_half_y * pt.domain_stretch_y(p) / 2;
+    const real_t reach_x = quarter_x < cell_x ? quarter_x : cell_x, reach_y = quarter_y < cell_y ? quarter_y : cell_y;
+    const real_t offset_x = a == 1 ? real_t(0) : reach_x, offset_y = a == 0 ? real_t(0) : reach_y;
     const int n = split_pieces(a);
     for (int k = 0; k < n; ++k) {
       // Along one axis: -, +. Along both: (-, -), (+, -), (-, +), (+, +).

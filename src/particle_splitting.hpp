@@ -9,13 +9,14 @@
 // once the domain outgrows a cell lets the particles of a near-vacuum drift apart first, each alone
 // in its stencil, which then sees no velocity gradient and no longer expands), along the axis its
 // domain has stretched more along: each half takes half the mass and half the domain, centred on
-// its half of the parent's domain, but at most a cell from the parent's centre, with the parent's
-// velocity, density, specific energy and pressure. A particle whose domain has stretched alike along both axes (to round-off:
-// split_tie_tolerance) splits along both, in four quarters: a particle on a diagonal of a flow
-// symmetric about it (a blast in a square box, a 2D Riemann problem) is its own mirror image, and
-// halves along x, or y, broke the symmetry, a rule that picks x on a tie favouring one side (the
-// quarter plane Sedov blast at 120 x 120 cells: its density field had differed from its own
-// transpose by 21 % of the peak by t = 1). Mass, momentum and energy are conserved exactly.
+// its half of the parent's domain but at most a cell from the parent's centre, with the parent's
+// velocity, density, specific energy and pressure. A particle whose domain has stretched alike
+// along both axes (to round-off: split_tie_tolerance) splits along both, in four quarters: a
+// particle on a diagonal of a flow symmetric about it (a blast in a square box, a 2D Riemann
+// problem) is its own mirror image, and halves along x, or y, broke the symmetry, a rule that picks
+// x on a tie favouring one side (the quarter plane Sedov blast at 120 x 120 cells: its density
+// field had differed from its own transpose by 21 % of the peak by t = 1). Mass, momentum and
+// energy are conserved exactly.
 //
 // Ids. Both halves get new ids, -1 - 2 n and -2 - 2 n, n counting every split of the run, in the
 // order of their parents' ids over all ranks: independent of the ranks, the threads and the particle
