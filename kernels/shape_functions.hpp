@@ -396,4 +396,14 @@ struct BSplineShape {
   }
 };
 
+// The node lines a particle's stencil may hold beyond its cell, for every shape: a particle of cell
+// ci reaches nodes ci - r + 1 .. ci + r (r = colour_period / 2: ci .. ci + 1 for the linear shape,
+// ci - 1 .. ci + 2 for the 3 x 3 ones, whose first node depends on the half of the cell it is in),
+// so node i is reached from cells i - r .. i + r - 1 at most. What a mark by cell of the particles
+// that may reach a node must allow (BoundaryVolumeGradients::cell_reach).
+constexpr int widest_stencil_reach = 2;
+static_assert(LinearShape::colour_period / 2 <= widest_stencil_reach && GimpShape::colour_period / 2 <= widest_stencil_reach &&
+                  BSplineShape::colour_period / 2 <= widest_stencil_reach,
+              "a shape reaches further than widest_stencil_reach");
+
 }  // namespace mpmflow

@@ -7,6 +7,7 @@
 #include "gas_physics.hpp"
 #include "kernels/index_lanes.hpp"
 #include "kernels/reductions.hpp"
+#include "kernels/shape_functions.hpp"
 
 namespace mpmflow {
 namespace {
@@ -502,7 +503,37 @@ GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const G
       pressure_side_gradients_("pressure_side_gradients", pressure_side_nodes_.entries),
       pressure_side_gradients_host_(host_mirror(pressure_side_gradients_)),
       obstacle_pressure_nodes_(slab, obstacles, pressure_side_nodes_),
-      obstacle_pressure_gradients_("obstacle_pressure_gradients", 2 * obstacle_pressure_nodes_.count) {}
+      obstacle_pressure_gradients_("obstacle_pressure_gradients", 2 * obstacle_pressure_nodes_.count) {
+  // The marks, node by node on the host, once (BoundaryVolumeGradients, gas_outside_nodes).
+  const GridGeometry& geo = slab.geometry;
+  const auto obstacle_entry = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), obstacle_pressure_nodes_.entry);
+  Kokkos::View<unsigned char*, DeviceType> cells("volume_gradient_cells", geo.num_cells());
+  Kokkos::View<unsigned char*, DeviceType> outside("gas_outside_nodes", geo.num_nodes());
+  const auto cells_host = Kokkos::create_mirror_view(cells);
+  const auto outside_host = Kokkos::create_mirror_view(outside);
+  Kokkos::deep_copy(cells_host, 0);
+  Kokkos::deep_copy(outside_host, 0);
+  constexpr index_t r = widest_stencil_reach;
+  for (index_t j = 0; j < geo.nodes_y; ++j)
+    for (index_t i = 0; i < geo.nodes_x; ++i) {
+      const index_t node = geo.node_index(i, j);
+      int slot = 0;
+      const bool side_node = pressure_side_nodes_.entry(i, j, slot) >= 0;
+      outside_host(node) = side_node ? 1 : 0;
+      const unsigned char mark =
+          (side_node && pressure_side_nodes_.crossed[slot] ? BoundaryVolumeGradients::reaches_side : 0) |
+          (obstacle_entry.extent(0) > 0 && obstacle_entry(node) >= 0 ? BoundaryVolumeGradients::reaches_obstacle : 0);
+      if (mark == 0) continue;
+      // The cells i - r .. i + r - 1 (and the same rows) whose particles may reach node (i, j).
+      for (index_t cj = std::max<index_t>(j - r, 0); cj < std::min<index_t>(j + r, geo.cells_y()); ++cj)
+        for (index_t ci = std::max<index_t>(i - r, 0); ci < std::min<index_t>(i + r, geo.cells_x()); ++ci)
+          cells_host(ci + geo.cells_x() * cj) |= mark;
+    }
+  Kokkos::deep_copy(cells, cells_host);
+  Kokkos::deep_copy(outside, outside_host);
+  volume_gradient_cells_ = cells;
+  gas_outside_nodes_ = outside;
+}
 
 ObstaclePressureNodes::ObstaclePressureNodes(const GridSlab& slab, const ObstacleGrid& obstacles,
                                              const PressureSideNodes& side_nodes)
@@ -520,22 +551,7 @@ ObstaclePressureNodes::ObstaclePressureNodes(const GridSlab& slab, const Obstacl
   entry = Kokkos::View<int*, DeviceType>("obstacle_pressure_entry", obstacles.num_obstacles > 0 ? geo.num_nodes() : 0);
   auto entry_host = Kokkos::create_mirror_view(entry);
   Kokkos::deep_copy(entry_host, -1);
-  for (size_t k = 0; k < kept.size(); ++k) {
-    const index_t node = band_nodes(kept[k]);
-    entry_host(node) = static_cast<int>(2 * k);
-    const real_t x = geo.node_x(geo.node_i_of(node)), y = geo.node_y(geo.node_j_of(node));
-    const bool first = k == 0;
-    x_min = first ? x : std::min(x_min, x);
-    x_max = first ? x : std::max(x_max, x);
-    y_min = first ? y : std::min(y_min, y);
-    y_max = first ? y : std::max(y_max, y);
-  }
-  if (!kept.empty()) {
-    x_min -= 2 * geo.spacing_x;
-    x_max += 2 * geo.spacing_x;
-    y_min -= 2 * geo.spacing_y;
-    y_max += 2 * geo.spacing_y;
-  }
+  for (size_t k = 0; k < kept.size(); ++k) entry_host(band_nodes(kept[k])) = static_cast<int>(2 * k);
   Kokkos::deep_copy(entry, entry_host);
   nodes = IndexView("obstacle_pressure_nodes", kept.size());
   obstacle = IndexView("obstacle_pressure_obstacle", kept.size());
@@ -556,31 +572,14 @@ PressureSideNodes::PressureSideNodes(const GridSlab& slab, const std::array<Boun
       node_offset_y(slab.node_offset_y),
       cells_x(slab.global_cells_x),
       cells_y(slab.global_cells_y) {
-  const DomainBox domain(slab);
   for (int s = 0; s < num_sides; ++s) {
     if (!pressure_side(side_type[s])) continue;
     side[count] = s;
-    real_t nx, ny;
-    inward_normal(s, nx, ny);
     const real_t free_stream_inward = inward_speed(s, free_stream.velocity_x, free_stream.velocity_y);
     inlet[s] = far_field_inlet(side_type[s], free_stream_inward);
     outflow[s] = side_type[s] == BoundaryType::outflow;
     crossed[count] = side_type[s] == BoundaryType::outflow || free_stream_inward < 0 || inlet[s];
     any_crossed |= crossed[count];
-    if (crossed[count]) {
-      // How deep inside the side a point lies, n . (x - x_side), as DomainBox::depth_and_along_side.
-      // A GIMP or B-spline particle reaches the nodes within 1.5 cells of it (half a cell of its
-      // own, the shape function's cell beyond), a linear one those within a cell; the lines held
-      // reach inner_layers cells inside the side.
-      const bool across_x = s == left_side || s == right_side;
-      depth_x[count] = nx;
-      depth_y[count] = ny;
-      depth_c[count] = s == left_side    ? -domain.x_min
-                       : s == right_side ? domain.x_max
-                       : s == bottom_side ? -domain.y_min
-                                          : domain.y_max;
-      reach[count] = real_t(1.5 + inner_layers) * (across_x ? slab.geometry.spacing_x : slab.geometry.spacing_y);
-    }
     first_entry[count] = entries;
     entries += 2 * layers * nodes_along(s == left_side || s == right_side ? cells_y : cells_x);
     ++count;

@@ -157,20 +157,12 @@ struct PressureSideNodes : GradientUnits {
   Kokkos::Array<index_t, num_sides> first_entry = {};
   index_t entries = 0;
   index_t node_offset_x = 0, node_offset_y = 0, cells_x = 0, cells_y = 0;
-  // The particles whose stencils may hold a crossed side's nodes: those within reach of it, where
-  // depth_x[k] x + depth_y[k] y + depth_c[k] (how deep inside crossed side k a point lies) is below
-  // reach[k]; the other entries never hold (no crossed side there), so that the test runs over all
-  // four in vector lanes.
-  Kokkos::Array<real_t, num_sides> depth_x = {}, depth_y = {}, depth_c = {}, reach = {};
 
   PressureSideNodes() = default;
   PressureSideNodes(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
                     const GasState& free_stream);
 
   KOKKOS_INLINE_FUNCTION static index_t nodes_along(index_t cells) { return cells + 1 + 2 * GridSlab::ghost_layers; }
-  KOKKOS_INLINE_FUNCTION index_t entry_of(const GridGeometry& geometry, index_t node) const {
-    return entry(geometry.node_i_of(node), geometry.node_j_of(node));
-  }
   KOKKOS_INLINE_FUNCTION index_t entry(index_t i, index_t j) const {
     int slot;
     return entry(i, j, slot);
@@ -193,13 +185,6 @@ struct PressureSideNodes : GradientUnits {
     }
     return -1;
   }
-  // (Only the outlets' nodes take the sums, SidePressure: particles near the other sides are left
-  // out.)
-  KOKKOS_INLINE_FUNCTION bool within_reach(real_t x, real_t y) const {
-    bool near = false;
-    for (int k = 0; k < num_sides; ++k) near |= depth_x[k] * x + depth_y[k] * y + depth_c[k] < reach[k];
-    return near;
-  }
 };
 
 // The nodes where the obstacles press on the gas with its pressure (ObstacleGrid::body_nodes, less
@@ -212,17 +197,27 @@ struct ObstaclePressureNodes : GradientUnits {
   IndexView nodes, obstacle;
   Kokkos::View<int*, DeviceType> entry;  // by local node
   index_t count = 0;
-  // The particles whose stencils may hold such a node: those in this box (the nodes' box widened by
-  // two cells; empty, min above max, where there are none).
-  real_t x_min = 1, x_max = 0, y_min = 1, y_max = 0;
 
   ObstaclePressureNodes() = default;
   ObstaclePressureNodes(const GridSlab& slab, const ObstacleGrid& obstacles, const PressureSideNodes& side_nodes);
+};
 
-  KOKKOS_INLINE_FUNCTION index_t entry_of(const GridGeometry&, index_t node) const { return entry(node); }
-  KOKKOS_INLINE_FUNCTION bool within_reach(real_t x, real_t y) const {
-    return (x >= x_min) & (x <= x_max) & (y >= y_min) & (y <= y_max);
-  }
+// What step 4 sums from the particles for the gas outside the pressure sides and for the bodies:
+// the volume gradients g_i = sum_p (M / rho) grad phi_i on the crossed pressure sides' nodes
+// (PressureSideNodes; SidePressure reads them only there) and on the obstacles' pressure nodes
+// (ObstaclePressureNodes), and by local cell which of the two a particle there may add to
+// (reaches_side, reaches_obstacle: a cell within widest_stencil_reach of such a node), so that one
+// pass over the particles' cells (4 B a particle) selects those whose stencils are computed,
+// instead of a pass over their positions for each (16 B a particle and a test). A particle of an
+// unmarked cell adds nothing to either, and the sums are integers: the same sums, bit for bit, as
+// from every particle (GridConditions.TheCellsMarkedForTheVolumeGradientsHoldEveryParticleThatAddsToThem).
+struct BoundaryVolumeGradients {
+  static constexpr unsigned char reaches_side = 1, reaches_obstacle = 2;
+  PressureSideNodes side_nodes;
+  Kokkos::View<long long*, DeviceType> side_gradients;  // empty, and no cell marked, where no side is crossed
+  ObstaclePressureNodes obstacle_nodes;
+  Kokkos::View<long long*, DeviceType> obstacle_gradients;
+  Kokkos::View<const unsigned char*, DeviceType> cell_reach;  // by local cell
 };
 
 class GridBoundaryConditions {
@@ -257,6 +252,16 @@ class GridBoundaryConditions {
   }
   void clear_obstacle_pressure_gradients() const;
   void sum_obstacle_pressure_gradients(const HaloExchange& halo, const NodeFieldsView& scratch) const;
+  // Both, and the cells whose particles may add to them, for
+  // TransferKernels::add_boundary_volume_gradients.
+  BoundaryVolumeGradients volume_gradients() const {
+    return {pressure_side_nodes_, pressure_side_gradients_, obstacle_pressure_nodes_, obstacle_pressure_gradients_,
+            volume_gradient_cells_};
+  }
+  // By local node: 1 where a pressure side's gas outside fills the space the particles leave
+  // (PressureSideNodes holds the node), else 0 (the volume correction's exception,
+  // compute_volume_fraction). Marked once: the sides' lines are fixed for the run.
+  const Kokkos::View<const unsigned char*, DeviceType>& gas_outside_nodes() const { return gas_outside_nodes_; }
 
  private:
   GridSlab slab_;
@@ -271,6 +276,7 @@ class GridBoundaryConditions {
   Kokkos::View<long long*, DeviceType>::HostMirror pressure_side_gradients_host_;
   ObstaclePressureNodes obstacle_pressure_nodes_;
   Kokkos::View<long long*, DeviceType> obstacle_pressure_gradients_;
+  Kokkos::View<const unsigned char*, DeviceType> volume_gradient_cells_, gas_outside_nodes_;
 };
 
 // A particle's cell, which the next step's kernels start from: its local cell, or left_the_domain

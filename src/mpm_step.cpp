@@ -37,19 +37,16 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     auto t = timers.scope(Phase::boundary_conditions);
     if (energy_budget) keep_momentum_and_force_before_conditions(grid);
     const GridBoundaryConditions& conditions = slab.grid_boundaries();
-    if (conditions.pressure_side_nodes().any_crossed) {  // the particles' cover of the crossed sides' nodes
-      conditions.clear_pressure_side_gradients();
-      transfers.add_pressure_side_volume_gradients(particles, conditions.pressure_side_nodes(),
-                                                   conditions.pressure_side_gradients());
-      conditions.sum_pressure_side_gradients(slab.context());
-    }
-    if (conditions.has_obstacles()) {  // and of the obstacles' surface bands (on every slab: the sum is collective)
-      conditions.clear_obstacle_pressure_gradients();
-      transfers.add_obstacle_pressure_volume_gradients(particles, conditions.obstacle_pressure_nodes(),
-                                                       conditions.obstacle_pressure_gradients());
-      // (The acceleration columns: step 5 writes them next.)
-      conditions.sum_obstacle_pressure_gradients(slab.halo(), grid.per_unit_mass);
-    }
+    // The particles' cover of the crossed sides' nodes and of the obstacles' surface bands, in one
+    // pass over the particles; then summed over the ranks and the slabs (on every slab where the
+    // case has obstacles: that sum is collective).
+    const bool sides = conditions.pressure_side_nodes().any_crossed, obstacles = conditions.has_obstacles();
+    if (sides) conditions.clear_pressure_side_gradients();
+    if (obstacles) conditions.clear_obstacle_pressure_gradients();
+    if (sides || obstacles) transfers.add_boundary_volume_gradients(particles, conditions.volume_gradients());
+    if (sides) conditions.sum_pressure_side_gradients(slab.context());
+    // (The acceleration columns as buffer: step 5 writes them next.)
+    if (obstacles) conditions.sum_obstacle_pressure_gradients(slab.halo(), grid.per_unit_mass);
     conditions.apply_to_momentum_and_force(grid.state, &s.obstacle_forces);
   }
   {  // 5. (mv)' = mv + dt f; V-bar = (mv)' / m and A = f / m on the nodes; the momentum columns
@@ -85,7 +82,7 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     compute_remap_velocity(grid, mass_threshold, dt, settings.thermodynamics.energy_consistent);
     if (settings.thermodynamics.volume_correction)
       compute_volume_fraction(grid, slab.obstacles().node_gas_volume, slab.slab(),
-                              slab.grid_boundaries().pressure_side_nodes());
+                              slab.grid_boundaries().gas_outside_nodes());
   }
   double work_of_conditions = 0;
   if (energy_budget) {

@@ -80,16 +80,12 @@ class TransferKernels {
   // Writes no field of the step.
   virtual void p2g_output_projection(const ParticleState& particles, const NodeFieldsView& target) = 0;
 
-  // Step 4's g_i = sum_p (M / rho) grad phi_i on the pressure sides' nodes (PressureSideNodes, on
-  // which the gas outside acts: GridBoundaryConditions), added into `gradients` in its integer
-  // units: a pass over the positions, the stencils only of the particles within reach of a side.
-  virtual void add_pressure_side_volume_gradients(const ParticleState& particles, const PressureSideNodes& nodes,
-                                                  const Kokkos::View<long long*, DeviceType>& gradients) const = 0;
-  // The same on the obstacles' surface bands (ObstaclePressureNodes), the stencils only of the
-  // particles in its box.
-  virtual void add_obstacle_pressure_volume_gradients(const ParticleState& particles,
-                                                      const ObstaclePressureNodes& nodes,
-                                                      const Kokkos::View<long long*, DeviceType>& gradients) const = 0;
+  // Step 4's g_i = sum_p (M / rho) grad phi_i on the crossed pressure sides' nodes (on which the
+  // gas outside acts) and on the obstacles' pressure nodes (BoundaryVolumeGradients, from
+  // GridBoundaryConditions), added into their gradients in their integer units: one pass over the
+  // particles' cells, the stencils only of the particles of the cells it marks.
+  virtual void add_boundary_volume_gradients(const ParticleState& particles,
+                                             const BoundaryVolumeGradients& sums) const = 0;
 
   // The P2G accumulation in use ("automatic" resolved for this execution space).
   virtual P2GStrategy strategy() const = 0;

@@ -32,6 +32,7 @@
 #include "particles.hpp"
 #include "slab_state.hpp"
 #include "solver.hpp"
+#include "transfers.hpp"
 
 namespace mpmflow {
 namespace {
@@ -510,6 +511,12 @@ CaseConfig tunnel_config(const std::string& extra_overrides_json = "") {
   if (!extra_overrides_json.empty())
     doc.update(nlohmann::json::parse("{" + extra_overrides_json.substr(extra_overrides_json.find(',') + 1) + "}"));
   return parse_case(doc.dump(), "tunnel.json");
+}
+
+// A View's host copy (a particle field, the sums of a kernel).
+template <class View>
+auto host_copy(const View& view) {
+  return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
 }
 
 using IdPosition = std::map<particle_id_t, std::pair<real_t, real_t>>;
@@ -1033,6 +1040,89 @@ TEST(GridConditions, ANodeUnderTwoSidesTakesBothConditionsInTheSidesOrder) {
   EXPECT_GT(corners_seen, 0);
 }
 
+// Step 4 computes the stencils of the particles of the cells BoundaryVolumeGradients marks, for
+// the volume gradients on the crossed pressure sides' nodes and the obstacles' pressure nodes: the
+// sums are those of every particle, bit for bit (integers), for each shape; an outflow side and a
+// far-field side the free stream leaves through, a circle and a square; the tunnel whole and cut
+// into slabs along x and along y. And the marks leave most cells out.
+TEST(GridConditions, TheCellsMarkedForTheVolumeGradientsHoldEveryParticleThatAddsToThem) {
+  for (const char* shape : {"linear", "gimp", "bspline"}) {
+    const CaseConfig config = tunnel_config(
+        std::string(R"(, "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"},
+            "bottom": {"type": "slip_wall"}, "top": {"type": "far_field"}},
+            "free_stream": {"density": 1.4, "pressure": 1, "velocity": [3, 0.5]},
+            "particles": {"placement": "random", "per_cell": [3, 3], "seed": 11},
+            "obstacles": [{"type": "circle", "centre": [1.5, 1], "radius": 0.3},
+                          {"type": "rectangle", "x": [2.55, 3.05], "y": [0.35, 0.75]}],
+            "numerics": {"shape_function": ")") +
+        shape + R"("})");
+    const std::vector<GridSlab> slabs = {make_grid_slab(config.domain, 0, 0, 40), make_grid_slab(config.domain, 0, 0, 23),
+                                         make_grid_slab(config.domain, 0, 23, 40), make_grid_slab(config.domain, 1, 0, 12),
+                                         make_grid_slab(config.domain, 1, 12, 20)};
+    for (const GridSlab& slab : slabs) {
+      const std::string where = std::string(shape) + ", the slab from cell " + std::to_string(slab.owned_cell_begin_x) +
+                                ", " + std::to_string(slab.owned_cell_begin_y);
+      const SlabState slab_state(config, slab);
+      const ParticleState pt = create_initial_particles(config, slab);
+      GridFields fields(slab.geometry);
+      const auto transfers = make_transfer_kernels(config, slab.geometry, fields);
+      const BoundaryVolumeGradients marked = slab_state.grid_boundaries().volume_gradients();
+      ASSERT_TRUE(marked.side_nodes.any_crossed) << where;
+      // The same sums with every cell marked for both.
+      BoundaryVolumeGradients every = marked;
+      const Kokkos::View<unsigned char*, DeviceType> all_cells("all_cells", marked.cell_reach.extent(0));
+      Kokkos::deep_copy(all_cells, BoundaryVolumeGradients::reaches_side | BoundaryVolumeGradients::reaches_obstacle);
+      every.cell_reach = all_cells;
+      every.side_gradients = Kokkos::View<long long*, DeviceType>("side", marked.side_gradients.extent(0));
+      every.obstacle_gradients = Kokkos::View<long long*, DeviceType>("obstacle", marked.obstacle_gradients.extent(0));
+      Kokkos::deep_copy(marked.side_gradients, 0);
+      Kokkos::deep_copy(marked.obstacle_gradients, 0);
+      transfers->add_boundary_volume_gradients(pt, marked);
+      transfers->add_boundary_volume_gradients(pt, every);
+      const auto side = host_copy(marked.side_gradients), side_every = host_copy(every.side_gradients);
+      const auto obstacle = host_copy(marked.obstacle_gradients), obstacle_every = host_copy(every.obstacle_gradients);
+      int side_sums = 0, obstacle_sums = 0;
+      for (size_t e = 0; e < side.extent(0); ++e) {
+        EXPECT_EQ(side(e), side_every(e)) << where << ", side entry " << e;
+        side_sums += side(e) != 0;
+      }
+      for (size_t e = 0; e < obstacle.extent(0); ++e) {
+        EXPECT_EQ(obstacle(e), obstacle_every(e)) << where << ", obstacle entry " << e;
+        obstacle_sums += obstacle(e) != 0;
+      }
+      EXPECT_GT(side_sums, 10) << where;
+      EXPECT_GT(obstacle_sums, 10) << where;  // (each slab holds a body, or a part of one)
+      // Marked where a stencil may reach such a node, and only there, among the slab's own cells:
+      // none with its centre in [0, 0.6] x [0, 1.5], well away from both bodies and both crossed
+      // sides; the outlet's last column for its side; the cells the circle's surface cuts for it.
+      const auto marks = host_copy(marked.cell_reach);
+      const GridGeometry& g = slab.geometry;
+      int far = 0, by_outlet = 0, by_circle = 0;
+      for (index_t c = 0; c < g.num_cells(); ++c) {
+        const index_t gi = g.cell_i_of(c) + slab.node_offset_x, gj = g.cell_j_of(c) + slab.node_offset_y;
+        if (gi < slab.owned_cell_begin_x || gi >= slab.owned_cell_end_x || gj < slab.owned_cell_begin_y ||
+            gj >= slab.owned_cell_end_y)
+          continue;
+        const double x = (gi + 0.5) * g.spacing_x, y = (gj + 0.5) * g.spacing_y;
+        const std::string cell = where + ", the cell at " + std::to_string(x) + ", " + std::to_string(y);
+        if (x < 0.6 && y < 1.5) {
+          ++far;
+          EXPECT_EQ(marks(c), 0) << cell;
+        }
+        if (gi == config.domain.cells_x - 1) {
+          ++by_outlet;
+          EXPECT_TRUE(marks(c) & BoundaryVolumeGradients::reaches_side) << cell;
+        }
+        if (std::abs(std::hypot(x - 1.5, y - 1) - 0.3) < 0.5 * g.spacing_x) {
+          ++by_circle;
+          EXPECT_TRUE(marks(c) & BoundaryVolumeGradients::reaches_obstacle) << cell;
+        }
+      }
+      EXPECT_GT(far + by_outlet + by_circle, 0) << where;
+    }
+  }
+}
+
 // The grid conditions on the obstacle nodes of the small tunnel with `obstacles` (a JSON list),
 // with momentum and force in every direction, so that about half the nodes' normal parts point
 // out: on a node inside, no normal momentum or force is left, outward as well as inward (the
@@ -1319,12 +1409,8 @@ TEST(ParticleSplitting, AlongTheAxisStretchedMoreOrBothWhereTheStretchesAgree) {
   EXPECT_EQ(split_pieces(split_both_axes), 4);
 }
 
-// The splitting tests' host copies of the particle fields, and the first `count` particles within
-// [x0, x1] x [0.5, 1.5], well inside the tunnel (no piece clamped to its sides).
-template <class View>
-auto host_copy(const View& view) {
-  return Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), view);
-}
+// The first `count` particles within [x0, x1] x [0.5, 1.5], well inside the tunnel (no piece
+// clamped to its sides), for the splitting tests.
 std::vector<index_t> particles_inside(const ParticleState& particles, real_t x0, real_t x1, size_t count) {
   const auto x = host_copy(particles.position_x), y = host_copy(particles.position_y);
   std::vector<index_t> chosen;
