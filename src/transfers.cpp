@@ -457,9 +457,10 @@ void sum_boundary_volume_gradients(const Shape& shape, const ParticleState& pt, 
                            Kokkos::Experimental::create_scatter_view(sums.obstacle_gradients)};
   const IndexView cell = pt.cell;
   const Kokkos::View<const unsigned char*, DeviceType> reach = sums.cell_reach;
-  // (One by one on every back-end: the test's loads of a byte by cell keep its loop scalar anyway,
-  // and the test in lanes, then a loop over the lanes it selected, made the cylinder's step 4 at
-  // 448 x 224 cells 1.85-2.01 ms a step, against 1.35-1.57 so.)
+  // (One by one on every back-end: the test's loads of a byte by cell keep its loop scalar anyway.
+  // With the test in lanes and then a loop over the lanes it selected, for_each_index_where's CPU
+  // form, the cylinder's boundary-conditions phase at 448 x 224 cells took 1.85-2.01 ms a step,
+  // against 1.35-1.57 this way, three paired runs.)
   for_each_index_where_one_by_one(
       "boundary_volume_gradients", 0, pt.count, KOKKOS_LAMBDA(const index_t p) { return reach(cell(p)) != 0; },
       add_particle);
