@@ -163,6 +163,10 @@ struct PressureSideNodes : GradientUnits {
                     const GasState& free_stream);
 
   KOKKOS_INLINE_FUNCTION static index_t nodes_along(index_t cells) { return cells + 1 + 2 * GridSlab::ghost_layers; }
+  // The entry of local node `node` (as ObstaclePressureNodes::entry_of).
+  KOKKOS_INLINE_FUNCTION index_t entry_of(const GridGeometry& geometry, index_t node) const {
+    return entry(geometry.node_i_of(node), geometry.node_j_of(node));
+  }
   KOKKOS_INLINE_FUNCTION index_t entry(index_t i, index_t j) const {
     int slot;
     return entry(i, j, slot);
@@ -200,6 +204,8 @@ struct ObstaclePressureNodes : GradientUnits {
 
   ObstaclePressureNodes() = default;
   ObstaclePressureNodes(const GridSlab& slab, const ObstacleGrid& obstacles, const PressureSideNodes& side_nodes);
+
+  KOKKOS_INLINE_FUNCTION index_t entry_of(const GridGeometry&, index_t node) const { return entry(node); }
 };
 
 // What step 4 sums from the particles for the gas outside the pressure sides and for the bodies:

@@ -418,24 +418,19 @@ struct AddVolumeGradients {
     const auto stencil = shape(p, c, x(p), y(p));
     const real_t volume = mass(p) / density(p);
     const unsigned char mark = sums.cell_reach(c);
-    if (mark & BoundaryVolumeGradients::reaches_side) {
-      auto access = side_scatter.access();
-      for (int k = 0; k < stencil.size; ++k) {
-        const index_t node = stencil.node(k);
-        const index_t entry = sums.side_nodes.entry(geometry.node_i_of(node), geometry.node_j_of(node));
-        if (entry < 0) continue;
-        access(entry) += sums.side_nodes.units(volume * stencil.grad_x(k));
-        access(entry + 1) += sums.side_nodes.units(volume * stencil.grad_y(k));
-      }
-    }
-    if (mark & BoundaryVolumeGradients::reaches_obstacle) {
-      auto access = obstacle_scatter.access();
-      for (int k = 0; k < stencil.size; ++k) {
-        const index_t entry = sums.obstacle_nodes.entry(stencil.node(k));
-        if (entry < 0) continue;
-        access(entry) += sums.obstacle_nodes.units(volume * stencil.grad_x(k));
-        access(entry + 1) += sums.obstacle_nodes.units(volume * stencil.grad_y(k));
-      }
+    if (mark & BoundaryVolumeGradients::reaches_side) add(stencil, volume, sums.side_nodes, side_scatter);
+    if (mark & BoundaryVolumeGradients::reaches_obstacle) add(stencil, volume, sums.obstacle_nodes, obstacle_scatter);
+  }
+  // The stencil's share of the sums on the nodes `nodes` numbers (entry_of), through `scatter`.
+  template <class Stencil, class Nodes>
+  KOKKOS_INLINE_FUNCTION void add(const Stencil& stencil, real_t volume, const Nodes& nodes,
+                                  const Scatter& scatter) const {
+    auto access = scatter.access();
+    for (int k = 0; k < stencil.size; ++k) {
+      const index_t entry = nodes.entry_of(geometry, stencil.node(k));
+      if (entry < 0) continue;
+      access(entry) += nodes.units(volume * stencil.grad_x(k));
+      access(entry + 1) += nodes.units(volume * stencil.grad_y(k));
     }
   }
 };
