@@ -220,7 +220,7 @@ struct ObstaclePressureNodes : GradientUnits {
 struct BoundaryVolumeGradients {
   static constexpr unsigned char reaches_side = 1, reaches_obstacle = 2;
   PressureSideNodes side_nodes;
-  Kokkos::View<long long*, DeviceType> side_gradients;  // empty, and no cell marked, where no side is crossed
+  Kokkos::View<long long*, DeviceType> side_gradients;  // (no cell is marked for them where no side is crossed)
   ObstaclePressureNodes obstacle_nodes;
   Kokkos::View<long long*, DeviceType> obstacle_gradients;
   Kokkos::View<const unsigned char*, DeviceType> cell_reach;  // by local cell

@@ -1044,7 +1044,8 @@ TEST(GridConditions, ANodeUnderTwoSidesTakesBothConditionsInTheSidesOrder) {
 // the volume gradients on the crossed pressure sides' nodes and the obstacles' pressure nodes: the
 // sums are those of every particle, bit for bit (integers), for each shape; an outflow side and a
 // far-field side the free stream leaves through, a circle and a square; the tunnel whole and cut
-// into slabs along x and along y. And the marks leave most cells out.
+// into slabs along x and along y. And the marks stand where a stencil may reach such a node, not
+// far from them.
 TEST(GridConditions, TheCellsMarkedForTheVolumeGradientsHoldEveryParticleThatAddsToThem) {
   for (const char* shape : {"linear", "gimp", "bspline"}) {
     const CaseConfig config = tunnel_config(
