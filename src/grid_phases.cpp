@@ -1,6 +1,5 @@
 #include "grid_phases.hpp"
 
-#include "boundary_conditions.hpp"
 #include "gas_physics.hpp"
 #include "kernels/index_lanes.hpp"
 
@@ -68,11 +67,11 @@ void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, rea
       });
 }
 
-void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, const GridSlab& slab,
+void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area,
                              const Kokkos::View<const unsigned char*, DeviceType>& gas_outside_nodes) {
   const NodeFieldsView state = fields.state, per_unit_mass = fields.per_unit_mass;
   const RealView gas_volume = node_gas_volume;
-  const real_t smallest = real_t(0.25) * slab.cell_area();
+  const real_t smallest = real_t(0.25) * cell_area;
   const Kokkos::View<const unsigned char*, DeviceType> gas_outside = gas_outside_nodes;
   Kokkos::parallel_for(
       "grid_volume_fraction", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))),

@@ -53,9 +53,9 @@ KOKKOS_INLINE_FUNCTION real_t node_volume_fraction(real_t particle_volume, real_
 // The volume fraction of every node into GridFields::volume_fraction, and its particles'
 // volume-weighted mean pressure into GridFields::mean_pressure (0 without particle volume): what
 // the volume correction reads (volume_corrected_density).
-// On `slab`, where gas_outside_nodes(i) is 1 at the nodes of its pressure sides
-// (node_volume_fraction's gas_outside; GridBoundaryConditions::gas_outside_nodes).
-void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, const GridSlab& slab,
+// gas_outside_nodes(i) is 1 at the nodes of the pressure sides (node_volume_fraction's gas_outside;
+// GridBoundaryConditions::gas_outside_nodes).
+void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area,
                              const Kokkos::View<const unsigned char*, DeviceType>& gas_outside_nodes);
 
 // Copies the momentum and force columns of `state` (before step 4) or the remapped momentum
