@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <random>
 #include <vector>
 
 #include "allocation_tracker.hpp"
@@ -250,6 +251,88 @@ TEST(ParticleMerging, AMergedParticleIsNeverPutInsideAnObstacle) {
   ParticleMerging(config, slab.geometry).merge(free);
   const auto centre = by_id(free, totals);
   EXPECT_DOUBLE_EQ(centre.at(-8)[2], 1.525);
+}
+
+// The pairing's definition, written plainly (pair_candidates orders the pairs a slice at a time and
+// drops those of taken particles): every pair of a cell sorted by cost, then by ids; level by level,
+// a level starting at the cheapest pair of two free particles and holding every pair within
+// merge_tie_tolerance of it, whose pairs of free particles claiming no particle another pair of the
+// level claims are taken. The pairs as (kept, merged away) indices, sorted.
+std::vector<std::pair<index_t, index_t>> pairs_by_definition(std::vector<MergeCandidate> candidates) {
+  std::sort(candidates.begin(), candidates.end(), [](const MergeCandidate& a, const MergeCandidate& b) {
+    return a.cell != b.cell ? a.cell < b.cell : a.id < b.id;
+  });
+  std::vector<std::pair<index_t, index_t>> result;
+  for (size_t begin = 0, end = 0; begin < candidates.size(); begin = end) {
+    end = begin;
+    while (end < candidates.size() && candidates[end].cell == candidates[begin].cell) ++end;
+    struct Pair {
+      real_t cost;
+      size_t a, b;
+    };
+    std::vector<Pair> pairs;
+    for (size_t a = begin; a < end; ++a)
+      for (size_t b = a + 1; b < end; ++b) pairs.push_back({merge_cost(candidates[a], candidates[b]), a, b});
+    std::sort(pairs.begin(), pairs.end(), [](const Pair& x, const Pair& y) {
+      return x.cost != y.cost ? x.cost < y.cost : (x.a != y.a ? x.a < y.a : x.b < y.b);
+    });
+    std::vector<bool> taken(candidates.size(), false);
+    const auto is_free = [&](const Pair& p) { return !taken[p.a] && !taken[p.b]; };
+    for (size_t k = 0; k < pairs.size();) {
+      if (!is_free(pairs[k])) {
+        ++k;
+        continue;
+      }
+      size_t level_end = k;
+      while (level_end < pairs.size() && pairs[level_end].cost <= pairs[k].cost * (1 + merge_tie_tolerance))
+        ++level_end;
+      std::map<size_t, int> claims;
+      for (size_t j = k; j < level_end; ++j)
+        if (is_free(pairs[j])) ++claims[pairs[j].a], ++claims[pairs[j].b];
+      for (size_t j = k; j < level_end; ++j)
+        if (claims[pairs[j].a] == 1 && claims[pairs[j].b] == 1) {
+          taken[pairs[j].a] = taken[pairs[j].b] = true;
+          result.emplace_back(candidates[pairs[j].a].index, candidates[pairs[j].b].index);
+        }
+      k = level_end;
+    }
+  }
+  std::sort(result.begin(), result.end());
+  return result;
+}
+
+// Crowded cells, as the linear Mach 3 cylinder's early steps have (up to 279 candidates in a cell):
+// pair_candidates gives the pairs of the definition. Random places and masses; and places on a
+// lattice with two masses, whose many costs are exactly equal (levels of several pairs, contested
+// particles, levels that run past a slice of ordered pairs).
+TEST(ParticleMerging, CrowdedCellsPairAsTheDefinitionSays) {
+  std::mt19937 random(20261207);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<MergeCandidate> candidates;
+  long long next_id = -1;
+  index_t next_index = 0;
+  const auto add = [&](long long cell, real_t x, real_t y, real_t mass) {
+    candidates.push_back({cell, next_id--, next_index++, x, y, mass});
+  };
+  for (const int count : {300, 120, 37, 9, 3, 2, 1})  // random places and masses, a cell each
+    for (int k = 0; k < count; ++k) add(count, unit(random), unit(random), 0.5 + unit(random));
+  for (int i = 0; i < 14; ++i)  // a 14 x 14 lattice, one cell
+    for (int j = 0; j < 14; ++j) add(1000, i / 16.0, j / 16.0, (i + j) % 3 == 0 ? 2.0 : 1.0);
+  for (int i = 0; i < 5; ++i)  // a 5 x 5 lattice of equal masses, one cell
+    for (int j = 0; j < 5; ++j) add(1001, i * 0.25, j * 0.25, 1.0);
+  // The candidates in an order of their own: the result does not depend on it.
+  std::shuffle(candidates.begin(), candidates.end(), random);
+
+  std::vector<index_t> keep, gone;
+  pair_candidates(candidates, keep, gone);
+  ASSERT_EQ(keep.size(), gone.size());
+  std::vector<std::pair<index_t, index_t>> pairs;
+  for (size_t k = 0; k < keep.size(); ++k) pairs.emplace_back(keep[k], gone[k]);
+  std::sort(pairs.begin(), pairs.end());
+  const auto expected = pairs_by_definition(candidates);
+  EXPECT_EQ(pairs, expected);
+  // Most candidates paired: (300 + 120 + 37 + 9 + 3 + 2 + 196 + 25) / 2 = 346 at most.
+  EXPECT_GT(expected.size(), 300u);
 }
 
 }  // namespace
