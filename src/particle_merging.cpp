@@ -1,6 +1,7 @@
 #include "particle_merging.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -48,10 +49,11 @@ KOKKOS_INLINE_FUNCTION void merge_pair(const ParticleState& pt, index_t keep, in
 }
 
 // A pair of a cell's candidates and its merge cost; first and second are their places in the cell's
-// run of the candidates (in id order: first has the smaller id).
+// run of the candidates (in id order: first has the smaller id). (32-bit places: 16 bytes a pair,
+// not 24, for the n (n - 1) / 2 pairs of a crowded cell.)
 struct CandidatePair {
   real_t cost;
-  size_t first, second;
+  std::uint32_t first, second;
 };
 // Cheapest first; equal costs in the order of the pair's ids: the same pairs in any particle order.
 // A total order (no two pairs have the same places), so that any way of sorting gives one sequence.
@@ -80,7 +82,8 @@ void pair_cell(const std::vector<MergeCandidate>& candidates, size_t begin, size
   pairs.clear();
   for (size_t a = 0; a < count; ++a)
     for (size_t b = a + 1; b < count; ++b)
-      pairs.push_back({merge_cost(candidates[begin + a], candidates[begin + b]), a, b});
+      pairs.push_back({merge_cost(candidates[begin + a], candidates[begin + b]), static_cast<std::uint32_t>(a),
+                       static_cast<std::uint32_t>(b)});
   taken.assign(count, 0);
   claims.assign(count, 0);
   size_t free = count;
