@@ -70,11 +70,12 @@ bool cheaper(const CandidatePair& a, const CandidatePair& b) {
 // holds every pair within the tolerance of it.
 //
 // Incremental: the pairs are put in order a slice at a time (the cheapest of those not yet in
-// order, as many as twice the free particles), and once a slice is used up the pairs that hold a
-// taken particle are dropped from the rest. Sorting all n (n - 1) / 2 pairs of a cell cost n^2 log n:
-// the linear Mach 3 cylinder's early steps had up to 279 candidates in a cell, 61 000 pairs in a
-// step, and their sort took 5 ms of a 30 ms step (README, Numerics, Merging). The first slices take
-// most particles, and what is left of the pairs shrinks with the square of the free particles.
+// order, as many as twice the free particles and at least 16), and once a slice is used up the
+// pairs that hold a taken particle are dropped from the rest. Sorting all n (n - 1) / 2 pairs of a
+// cell cost n^2 log n: the linear Mach 3 cylinder's early steps had up to 279 candidates in a cell,
+// 61 000 pairs in a step, and their sort took 5 ms of a 30 ms step (README, Numerics, Merging). The
+// first slices take most particles, and what is left of the pairs shrinks with the square of the
+// free particles.
 void pair_cell(const std::vector<MergeCandidate>& candidates, size_t begin, size_t end,
                std::vector<CandidatePair>& pairs, std::vector<char>& taken, std::vector<int>& claims,
                std::vector<index_t>& keep, std::vector<index_t>& gone) {
