@@ -10,17 +10,25 @@ namespace mpmflow {
 namespace {
 
 #ifdef MPMFLOW_HAVE_MPI
-// The rank each particle belongs to: the owner (SlabDecomposition::owner_of_cell, the same
-// function on the device) of its global cell along the decomposition axis, which the slab it was
-// last in computes from its position.
-void find_destinations(const ParticleState& pt, const GridSlab& slab, int axis,
-                       const SlabDecomposition::DeviceOwners& owners, const IndexView& destination) {
-  const RealView x = pt.position_x, y = pt.position_y;
-  Kokkos::parallel_for(
-      "migration_destination", Kokkos::RangePolicy<ExecutionSpace>(0, pt.count), KOKKOS_LAMBDA(const index_t p) {
-        destination(p) = owners.owner_of_cell(slab.global_cell_along(axis, x(p), y(p)));
-      });
-}
+// The rank a particle belongs to is the owner (SlabDecomposition::owner_of_cell, the same function
+// on the device) of its global cell along the decomposition axis, which the slab it was last in
+// computes from its position. Whether particle p has left this rank's slab, the global cells
+// [begin, end) along that axis, takes its coordinate along the axis alone (`along`) and no search
+// of the slabs, which is left to the few that leave (slab_owning_cell). (Every particle's rank,
+// written and then read again to select those leaving, made migration 1.9 ms a step on each of 2
+// ranks of one thread, the cylinder at 448 x 224 cells; 1.1 ms this way:
+// docs/performance_history.md, "Migration's test".)
+struct LeavesTheSlab {
+  RealView along;
+  GridSlab slab;
+  int axis;
+  index_t begin, end;
+  KOKKOS_INLINE_FUNCTION index_t global_cell(index_t p) const { return slab.global_cell_at(axis, along(p)); }
+  KOKKOS_INLINE_FUNCTION bool operator()(index_t p) const {
+    const index_t cell = global_cell(p);
+    return cell < begin || cell >= end;
+  }
+};
 
 // The exchange of a migration: rank r gets send[send_offsets[r] ..) (send_counts[r] items of
 // `type`) and puts what r sends it at receive + receive_offsets[r]. With `neighbours_only` (no
@@ -87,14 +95,12 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
 #ifdef MPMFLOW_HAVE_MPI
   const int rank = context.rank(), ranks = context.size();
   const index_t n = pt.count;
-  if (static_cast<index_t>(destination_.extent(0)) < n) destination_ = IndexView("migration_destination", pt.capacity());
-  const IndexView destination = destination_;
   if (!owners_.cell_begin.data() || owners_of_ != d) {  // (made again only where the slabs changed)
     owners_ = d.device_owners();
     owners_of_ = d;
   }
-  find_destinations(pt, slab, d.axis, owners_, destination);
-  const auto leaves = KOKKOS_LAMBDA(const index_t p) { return destination(p) != rank; };
+  const SlabDecomposition::DeviceOwners owners = owners_;
+  LeavesTheSlab leaves{d.axis == 0 ? pt.position_x : pt.position_y, slab, d.axis, d.begin(rank), d.end(rank)};
   const IndexView leaving = select_indices("migration_leaving", 0, n, leaves, leaving_);
   const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
   const size_t leaving_count = static_cast<size_t>(num_leaving);
@@ -106,7 +112,7 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const IndexView leaving_destination = leaving_destination_.part(leaving_count);
   Kokkos::parallel_for(
       "migration_leaving_destination", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving),
-      KOKKOS_LAMBDA(const index_t k) { leaving_destination(k) = destination(leaving(k)); });
+      KOKKOS_LAMBDA(const index_t k) { leaving_destination(k) = owners.owner_of_cell(leaves.global_cell(leaving(k))); });
   leaving_on_host_.hold(leaving_count, "migration_leaving_on_host");
   const auto leaving_host = leaving_on_host_.part(leaving_count);
   const auto destination_host = leaving_destination_.host_part(leaving_count);
@@ -124,14 +130,15 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const IndexView send_order = send_order_.part(leaving_count);
   Kokkos::deep_copy(send_order, send_order_host);
 
-  // Pack: particle-major, the real fields of one particle side by side; ids apart.
-  const WholeParticles leaving_fields(pt);
-  const int F = leaving_fields.num_reals;
+  // Pack: particle-major, the real fields of one particle side by side; ids apart. (The fields'
+  // Views held in a scope of their own: held on, they would stay allocated beside their grown
+  // copies where the arrivals make the particle Views grow below.)
+  const int F = WholeParticles(pt).num_reals;
   send_reals_.hold(leaving_count * F, "migration_send_reals");
   send_ids_.hold(leaving_count, "migration_send_ids");
   const RealView send_reals = send_reals_.part(leaving_count * F);
   const ParticleIdView send_ids = send_ids_.part(leaving_count);
-  pack_particles(leaving_fields, send_order, num_leaving, send_reals, send_ids);
+  pack_particles(WholeParticles(pt), send_order, num_leaving, send_reals, send_ids);
 
   // Counts, then data: with the neighbouring slabs alone where every rank sends only to them (as
   // in a step, where no particle moves more than a cell), with every rank otherwise (recycling
@@ -192,6 +199,7 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const HoleFilling plan = plan_hole_filling(n, leaving, leaves, fillers_);
   copy_particles("particle_fill_holes", pt, plan.holes, 0, plan.fillers, plan.count);
   const index_t staying = plan.staying;
+  leaves.along = RealView();  // (let go of before the growth below, as the packing's Views)
 
   // Append the arrivals.
   const index_t new_count = staying + num_arriving;

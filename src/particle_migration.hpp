@@ -27,7 +27,6 @@ class ParticleMigration {
   bool last_exchange_neighbours_only() const { return last_exchange_neighbours_only_; }
 
  private:
-  IndexView destination_;
   bool last_exchange_neighbours_only_ = false;
   SlabDecomposition owners_of_;               // the slabs owners_ was made for
   SlabDecomposition::DeviceOwners owners_;    // their first cells on the device
