@@ -2,32 +2,46 @@
 
 #include "kernels/particle_compaction.hpp"
 
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace mpmflow {
+
+OutsideTheCells::OutsideTheCells(const GridSlab& slab_, int axis_, index_t begin_, index_t end_)
+    : slab(slab_), axis(axis_), begin(begin_), end(end_) {
+  const real_t origin = axis == 0 ? slab.geometry.origin_x : slab.geometry.origin_y;
+  const real_t spacing = axis == 0 ? slab.geometry.spacing_x : slab.geometry.spacing_y;
+  const index_t from_cells = begin - slab.node_offset(axis), to_cells = end - slab.node_offset(axis);
+  const real_t from = origin + spacing * real_t(from_cells), to = origin + spacing * real_t(to_cells);
+  surely_inside_from = from + face_margin(from, spacing, from_cells);
+  surely_inside_to = to - face_margin(to, spacing, to_cells);
+}
+
+real_t OutsideTheCells::face_margin(real_t face, real_t spacing, index_t cells) {
+  const real_t unit = std::numeric_limits<real_t>::epsilon();
+  return real_t(1e-6) * spacing + 8 * unit * (std::abs(face) + spacing * real_t(std::abs(cells) + 1));
+}
+
 namespace {
 
 #ifdef MPMFLOW_HAVE_MPI
 // The rank a particle belongs to is the owner (SlabDecomposition::owner_of_cell, the same function
 // on the device) of its global cell along the decomposition axis, which the slab it was last in
-// computes from its position. Whether particle p has left this rank's slab, the global cells
-// [begin, end) along that axis, takes its coordinate along the axis alone (`along`) and no search
-// of the slabs, which is left to the few that leave (slab_owning_cell). (Every particle's rank,
-// written and then read again to select those leaving, made migration 1.9 ms a step on each of 2
-// ranks of one thread, the cylinder at 448 x 224 cells; 1.1 ms this way:
-// docs/performance_history.md, "Migration's test".)
+// computes from its position. Whether particle p has left this rank's slab takes its coordinate
+// along the axis alone (`along`, OutsideTheCells) and no search of the slabs, which is left to the
+// few that leave (slab_owning_cell). (Every particle's rank, written and then read again to select
+// those leaving, made migration 1.9 ms a step on each of 2 ranks of one thread, the cylinder at 448
+// x 224 cells: docs/performance_history.md, "Migration's test".)
 struct LeavesTheSlab {
   RealView along;
-  GridSlab slab;
-  int axis;
-  index_t begin, end;
-  KOKKOS_INLINE_FUNCTION index_t global_cell(index_t p) const { return slab.global_cell_at(axis, along(p)); }
-  KOKKOS_INLINE_FUNCTION bool operator()(index_t p) const {
-    const index_t cell = global_cell(p);
-    return cell < begin || cell >= end;
+  OutsideTheCells outside;
+  KOKKOS_INLINE_FUNCTION index_t global_cell(index_t p) const {
+    return outside.slab.global_cell_at(outside.axis, along(p));
   }
+  KOKKOS_INLINE_FUNCTION bool operator()(index_t p) const { return outside(along(p)); }
 };
 
 // The exchange of a migration: rank r gets send[send_offsets[r] ..) (send_counts[r] items of
@@ -100,7 +114,8 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
     owners_of_ = d;
   }
   const SlabDecomposition::DeviceOwners owners = owners_;
-  LeavesTheSlab leaves{d.axis == 0 ? pt.position_x : pt.position_y, slab, d.axis, d.begin(rank), d.end(rank)};
+  LeavesTheSlab leaves{d.axis == 0 ? pt.position_x : pt.position_y,
+                       OutsideTheCells(slab, d.axis, d.begin(rank), d.end(rank))};
   const IndexView leaving = select_indices("migration_leaving", 0, n, leaves, leaving_);
   const index_t num_leaving = static_cast<index_t>(leaving.extent(0));
   const size_t leaving_count = static_cast<size_t>(num_leaving);
@@ -112,7 +127,9 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const IndexView leaving_destination = leaving_destination_.part(leaving_count);
   Kokkos::parallel_for(
       "migration_leaving_destination", Kokkos::RangePolicy<ExecutionSpace>(0, num_leaving),
-      KOKKOS_LAMBDA(const index_t k) { leaving_destination(k) = owners.owner_of_cell(leaves.global_cell(leaving(k))); });
+      KOKKOS_LAMBDA(const index_t k) {
+        leaving_destination(k) = owners.owner_of_cell(leaves.global_cell(leaving(k)));
+      });
   leaving_on_host_.hold(leaving_count, "migration_leaving_on_host");
   const auto leaving_host = leaving_on_host_.part(leaving_count);
   const auto destination_host = leaving_destination_.host_part(leaving_count);

@@ -7,10 +7,35 @@
 // the context asks for GPU-aware MPI. Deterministic: the particles leaving go in index order per
 // destination, the holes they leave are filled by the last staying particles in index order, and
 // arrivals are appended in (source rank, source order). A run therefore repeats bitwise.
+#include "grid.hpp"
 #include "parallel.hpp"
 #include "particles.hpp"
 
 namespace mpmflow {
+
+// Whether a coordinate along the slabs' axis lies outside the global cells [begin, end) along it, as
+// `slab`'s cell arithmetic (GridSlab::global_cell_at, clamped to the domain) tells: migration's
+// test of a particle. A coordinate inside the cells' faces by more than that arithmetic's
+// round-off can reach (face_margin) is told by two comparisons, as almost every particle is; the
+// rest by the arithmetic itself, so that the answer is the arithmetic's for every coordinate.
+struct OutsideTheCells {
+  GridSlab slab;
+  int axis = 0;
+  index_t begin = 0, end = 0;
+  real_t surely_inside_from = 0, surely_inside_to = 0;  // coordinates along the axis
+
+  OutsideTheCells(const GridSlab& slab, int axis, index_t begin, index_t end);
+  KOKKOS_INLINE_FUNCTION bool operator()(real_t coordinate) const {
+    if (coordinate > surely_inside_from && coordinate < surely_inside_to) return false;
+    const index_t cell = slab.global_cell_at(axis, coordinate);
+    return cell < begin || cell >= end;
+  }
+  // How far inside the face at coordinate `face` (`cells` cells from the slab's first node) a
+  // coordinate is surely in the cell beside it as cell_along computes it, (x - origin) / spacing
+  // rounded down: 8 times what rounding the face's coordinate and that quotient can take (a few
+  // units of the last place of each), and a millionth of a cell more.
+  static real_t face_margin(real_t face, real_t spacing, index_t cells);
+};
 
 class ParticleMigration {
  public:

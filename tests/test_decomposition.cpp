@@ -3,11 +3,14 @@
 // cut along y giving the same answer as the whole grid along x.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "case_config.hpp"
 #include "grid.hpp"
 #include "parallel.hpp"
+#include "particle_migration.hpp"
 
 namespace mpmflow {
 namespace {
@@ -222,6 +225,61 @@ TEST(SlabIndexSpaces, GlobalCellOfAPointAnywhereInTheDomain) {
     EXPECT_EQ(slab.global_cell_along(0, -0.5, 0.5), 0);
     EXPECT_EQ(slab.global_cell_along(0, 2.0, 0.5), 19);
   }
+}
+
+// Migration's test of a particle (OutsideTheCells) gives the cell arithmetic's answer for every
+// coordinate: at each face of a slab and up to 64 units of the last place either side of it, where
+// its two comparisons must leave the answer to the arithmetic, and a cell's width either side, along
+// x and y, with spacings that are not binary fractions (so that the faces' coordinates and the
+// quotients round). The first two slabs have a face where comparisons alone answer wrongly (found
+// by a search over domains and slabs): at y = 1.1e-16, above the face at 0 as its coordinate
+// rounds, the arithmetic puts the point in the cell below; the third lies far from the origin.
+TEST(Decomposition, MigrationTellsALeavingParticleAsTheCellArithmeticDoes) {
+  struct Slab {
+    int axis;
+    real_t low, high;
+    int cells;
+    index_t begin, end;
+  };
+  int checked = 0, outside = 0;
+  const Slab slabs[] = {{1, -1.3, 1.3, 26, 8, 13}, {0, -2.1, 4.2, 26, 4, 9}, {0, 1000.1, 1001.4, 449, 149, 299}};
+  for (const Slab& c : slabs) {
+    DomainConfig domain;
+    (c.axis == 0 ? domain.x_min : domain.y_min) = c.low;
+    (c.axis == 0 ? domain.x_max : domain.y_max) = c.high;
+    (c.axis == 0 ? domain.cells_x : domain.cells_y) = c.cells;
+    (c.axis == 0 ? domain.cells_y : domain.cells_x) = 7;
+    const GridSlab slab = make_grid_slab(domain, c.axis, c.begin, c.end);
+    const OutsideTheCells test(slab, c.axis, c.begin, c.end);
+    const real_t spacing = (c.high - c.low) / c.cells;
+    const real_t origin = c.axis == 0 ? slab.geometry.origin_x : slab.geometry.origin_y;
+    for (const index_t face : {c.begin, c.end}) {
+      // The face's coordinate as the slab computes it, and as the domain's edge and spacing give it.
+      for (const real_t at : {origin + spacing * real_t(face - slab.node_offset(c.axis)), c.low + spacing * face}) {
+        for (const real_t away : {real_t(0), spacing * real_t(1e-7), spacing, -spacing * real_t(1e-7), -spacing}) {
+          real_t up = at + away, down = at + away;
+          for (int k = 0; k <= 64; ++k) {
+            for (const real_t coordinate : {up, down}) {
+              const index_t cell = slab.global_cell_at(c.axis, coordinate);
+              const bool expected = cell < c.begin || cell >= c.end;
+              EXPECT_EQ(test(coordinate), expected) << "axis " << c.axis << ", coordinate " << coordinate;
+              ++checked;
+              outside += expected ? 1 : 0;
+            }
+            up = std::nextafter(up, std::numeric_limits<real_t>::infinity());
+            down = std::nextafter(down, -std::numeric_limits<real_t>::infinity());
+          }
+        }
+      }
+    }
+    // Well inside, and beyond the domain's edges (clamped to its first and last cells: outside
+    // these slabs, which hold neither).
+    EXPECT_FALSE(test(c.low + spacing * real_t(c.begin + c.end) / 2));
+    EXPECT_TRUE(test(c.low - 1));
+    EXPECT_TRUE(test(c.high + 1));
+  }
+  EXPECT_GT(outside, checked / 4);  // both answers met near the faces
+  EXPECT_LT(outside, checked * 3 / 4);
 }
 
 TEST(Decomposition, SingleProcessContextWithoutMpiRun) {
