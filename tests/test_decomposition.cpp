@@ -231,9 +231,11 @@ TEST(SlabIndexSpaces, GlobalCellOfAPointAnywhereInTheDomain) {
 // coordinate: at each face of a slab and up to 64 units of the last place either side of it, where
 // its two comparisons must leave the answer to the arithmetic, and a cell's width either side, along
 // x and y, with spacings that are not binary fractions (so that the faces' coordinates and the
-// quotients round). The first two slabs have a face where comparisons alone answer wrongly (found
-// by a search over domains and slabs): at y = 1.1e-16, above the face at 0 as its coordinate
-// rounds, the arithmetic puts the point in the cell below; the third lies far from the origin.
+// quotients round). The first two slabs have an upper face where comparisons alone answer wrongly
+// (found by a search over domains and slabs that mirrored the arithmetic): the face at y = 0 comes
+// out at 1.1e-16, and the point a unit of the last place below that is in cell 13, above the
+// slab, by the arithmetic; so is x = 0.0808 at the second's face; the third slab lies far from the
+// origin.
 TEST(Decomposition, MigrationTellsALeavingParticleAsTheCellArithmeticDoes) {
   struct Slab {
     int axis;
