@@ -105,8 +105,8 @@ struct GridSlab {
   KOKKOS_INLINE_FUNCTION index_t global_cell_along(int along, real_t x, real_t y) const {
     return global_cell_at(along, along == 0 ? x : y);
   }
-  // The same from the point's coordinate along `along` alone (a pass that needs no other reads
-  // only that one).
+  // The same from the point's coordinate along `along` alone (so that a pass needing nothing else
+  // reads only that one).
   KOKKOS_INLINE_FUNCTION index_t global_cell_at(int along, real_t coordinate) const {
     const index_t cell = geometry.cell_along(along, coordinate, geometry.inverse_spacing(along)) + node_offset(along);
     return cell < 0 ? 0 : (cell >= global_cells(along) ? global_cells(along) - 1 : cell);

@@ -147,9 +147,9 @@ long ParticleMigration::migrate(ParticleState& pt, const GridSlab& slab, const S
   const IndexView send_order = send_order_.part(leaving_count);
   Kokkos::deep_copy(send_order, send_order_host);
 
-  // Pack: particle-major, the real fields of one particle side by side; ids apart. (The fields'
-  // Views held in a scope of their own: held on, they would stay allocated beside their grown
-  // copies where the arrivals make the particle Views grow below.)
+  // Pack: particle-major, the real fields of one particle side by side; ids apart. (WholeParticles
+  // as temporaries: one kept to the end of the call would hold the old fields' Views beside their
+  // grown copies where the arrivals make the particle Views grow below.)
   const int F = WholeParticles(pt).num_reals;
   send_reals_.hold(leaving_count * F, "migration_send_reals");
   send_ids_.hold(leaving_count, "migration_send_ids");
