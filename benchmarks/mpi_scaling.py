@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Strong and weak scaling of mpmflow under mpirun on CPUs.
 
-  benchmarks/mpi_scaling.py [--mpmflow build/openmp/bin/mpmflow] [--ranks 1,2,4] [--out DIR]
+  benchmarks/mpi_scaling.py [--mpmflow build/openmp/bin/mpmflow] [--ranks 1,2,4] [--repeat 1] [--out DIR]
 
 Strong scaling: one case (default: the Mach 3 cylinder at 160 x 80 cells, 9 particles per cell) on
 1, 2, 4 ... ranks. Weak scaling: the grid grows along x with the rank count (cells_x = base x
@@ -9,6 +9,10 @@ ranks), so every rank keeps the same share. Every run is a fixed number of steps
 OpenMP thread per rank, no output. Prints particle-steps per second and parallel efficiency
 (rate on p ranks / (p x rate on 1 rank)) per rank count, and writes DIR/scaling.csv and
 DIR/scaling.png. Run it with Debian's python3 (/usr/bin/python3), which has matplotlib.
+With --repeat N every run is made N times, in N rounds of all the runs one after the other (so
+that a machine whose pace drifts slows every rank count alike, not the last ones), and each rank
+count's figure is the median of its N runs, with their least and greatest beside it in the CSV and
+as error bars in the plot; the efficiency is that of the medians.
 On a machine with fewer cores than ranks the ranks share cores (--oversubscribe): the efficiency
 then measures the code's overhead plus the oversubscription, not the code alone.
 """
@@ -17,6 +21,7 @@ import csv
 import os
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 
@@ -77,6 +82,8 @@ def main():
     parser.add_argument("--steps", type=positive_int, default=100)
     parser.add_argument("--threads", type=positive_int, default=1, help="OpenMP threads per rank")
     parser.add_argument("--balance-interval", type=int, default=20)
+    parser.add_argument("--repeat", type=positive_int, default=1,
+                        help="runs of each rank count, in rounds; its figure is their median")
     parser.add_argument("--out", default="benchmarks/results")
     args = parser.parse_args()
     if not os.path.exists(args.mpmflow):
@@ -90,19 +97,36 @@ def main():
     weak_x, weak_y = args.weak_cells
     os.makedirs(args.out, exist_ok=True)
 
+    def grid(kind, p):
+        return (strong_x, strong_y) if kind == "strong" else (weak_x * p, weak_y)
+
+    # Round by round: each round runs every kind and rank count once.
+    runs = {}  # (kind, ranks) -> [(particles, steps, rate), ...]
+    for round_number in range(1, args.repeat + 1):
+        for kind in ("strong", "weak"):
+            for p in ranks:
+                cells_x, cells_y = grid(kind, p)
+                particles, steps, rate = run(args, p, cells_x, cells_y)
+                runs.setdefault((kind, p), []).append((particles, steps, rate))
+                print(f"round {round_number}/{args.repeat}  {kind:6s} ranks {p:3d}  {cells_x} x {cells_y} cells  "
+                      f"{particles} particles  {rate:.3e} particle-steps/s", flush=True)
+
     rows = []
     for kind in ("strong", "weak"):
-        base = None
+        rates = {p: [rate for _, _, rate in runs[(kind, p)]] for p in ranks}
+        base = statistics.median(rates[ranks[0]]) / ranks[0]  # the first rank count's rate per rank
         for p in ranks:
-            cells_x, cells_y = (strong_x, strong_y) if kind == "strong" else (weak_x * p, weak_y)
-            particles, steps, rate = run(args, p, cells_x, cells_y)
-            if base is None:
-                base = rate / ranks[0]
-            efficiency = rate / (p * base)
+            cells_x, cells_y = grid(kind, p)
+            particles, steps, _ = runs[(kind, p)][0]
+            median = statistics.median(rates[p])
+            efficiency = median / (p * base)
             rows.append(dict(kind=kind, ranks=p, cells_x=cells_x, cells_y=cells_y, particles=particles, steps=steps,
-                             particle_steps_per_second=f"{rate:.4e}", efficiency=f"{efficiency:.3f}"))
+                             runs=len(rates[p]), particle_steps_per_second=f"{median:.4e}",
+                             particle_steps_per_second_min=f"{min(rates[p]):.4e}",
+                             particle_steps_per_second_max=f"{max(rates[p]):.4e}", efficiency=f"{efficiency:.3f}"))
+            spread = f" (runs {min(rates[p]):.3e} to {max(rates[p]):.3e})" if len(rates[p]) > 1 else ""
             print(f"{kind:6s} ranks {p:3d}  {cells_x} x {cells_y} cells  {particles} particles  "
-                  f"{rate:.3e} particle-steps/s  efficiency {efficiency:.2f}", flush=True)
+                  f"{median:.3e} particle-steps/s{spread}  efficiency {efficiency:.2f}", flush=True)
 
     csv_path = os.path.join(args.out, "scaling.csv")
     with open(csv_path + ".tmp", "w", newline="") as f:  # renamed once whole: never a half-written table
@@ -119,7 +143,10 @@ def main():
     for kind, marker in (("strong", "o"), ("weak", "s")):
         sel = [r for r in rows if r["kind"] == kind]
         p = [r["ranks"] for r in sel]
-        axes[0].plot(p, [float(r["particle_steps_per_second"]) for r in sel], marker=marker, label=kind)
+        median = [float(r["particle_steps_per_second"]) for r in sel]
+        below = [m - float(r["particle_steps_per_second_min"]) for m, r in zip(median, sel)]
+        above = [float(r["particle_steps_per_second_max"]) - m for m, r in zip(median, sel)]
+        axes[0].errorbar(p, median, yerr=[below, above], marker=marker, capsize=3, label=kind)
         axes[1].plot(p, [float(r["efficiency"]) for r in sel], marker=marker, label=kind)
     axes[0].set_xlabel("MPI ranks")
     axes[0].set_ylabel("particle-steps per second")
@@ -132,7 +159,8 @@ def main():
     for ax in axes:
         ax.grid(True, which="both", alpha=0.3)
         ax.legend()
-    fig.suptitle(f"mpmflow MPI scaling ({args.threads} thread(s) per rank, {os.cpu_count()} cores)")
+    repeats = f"; median of {args.repeat} runs, bars from the least to the greatest" if args.repeat > 1 else ""
+    fig.suptitle(f"mpmflow MPI scaling ({args.threads} thread(s) per rank, {os.cpu_count()} cores{repeats})")
     fig.tight_layout()
     png_path = os.path.join(args.out, "scaling.png")
     fig.savefig(png_path + ".tmp.png", dpi=110)

@@ -5,8 +5,10 @@ options into an error naming the option. It times nothing: the figures' values a
 - benchmarks/scaling_study.py (two grid sizes, two steps a row): its JSON, CSV and PNG, with a
   whole-step row for every grid size, particles per cell and ordering the CSV holds, and no file
   left under a temporary name;
-- benchmarks/mpi_scaling.py (given an mpiexec: ranks 1 and 2 on a small grid, five steps): its CSV
-  with a strong and a weak row for each rank count, efficiency 1 on one rank, and its PNG;
+- benchmarks/mpi_scaling.py (given an mpiexec: ranks 1 and 2 on a small grid, five steps, two
+  rounds): its CSV with a strong and a weak row for each rank count, each of two runs, its figure
+  their median (between their least and greatest, the median of two lying halfway), efficiency 1 on
+  one rank, and its PNG;
 - mpi_scaling.py's options given wrong: exit 2 and an error naming the option.
 
 Usage: scaling_scripts.py MPMFLOW_BENCHMARKS MPMFLOW SOURCE_DIR WORK_DIR [MPIEXEC]
@@ -77,7 +79,7 @@ def check_mpi_scaling(mpmflow, source_dir, work_dir, mpiexec):
     if mpiexec:
         result = run([sys.executable, script, "--mpmflow", mpmflow, "--mpiexec", mpiexec, "--case",
                       os.path.join(source_dir, "cases", "cylinder_mach3.json"), "--ranks", "1,2", "--cells", "40,20",
-                      "--weak-cells", "20,20", "--steps", "5", "--out", out])
+                      "--weak-cells", "20,20", "--steps", "5", "--repeat", "2", "--out", out])
         if result.returncode != 0:
             fail(f"mpi_scaling.py: exit {result.returncode}\n{result.stdout[-2000:]}\n{result.stderr[-2000:]}")
         else:
@@ -88,12 +90,21 @@ def check_mpi_scaling(mpmflow, source_dir, work_dir, mpiexec):
                 fail(f"mpi_scaling.py: CSV rows {found}, expected strong and weak on 1 and 2 ranks")
             elif any(float(r["efficiency"]) != 1 for r in rows if r["ranks"] == "1"):
                 fail("mpi_scaling.py: efficiency on one rank is not 1")
+            for r in rows:
+                least, median, greatest = (float(r[k]) for k in ("particle_steps_per_second_min",
+                                                                 "particle_steps_per_second",
+                                                                 "particle_steps_per_second_max"))
+                # (The CSV prints 5 significant digits: the median of two within that of halfway.)
+                if r["runs"] != "2" or not least <= median <= greatest or \
+                        abs(median - (least + greatest) / 2) > 1e-4 * median:
+                    fail(f"mpi_scaling.py: row {r['kind']} {r['ranks']}: {r['runs']} runs, least {least}, "
+                         f"median {median}, greatest {greatest}: expected 2 runs and their median")
             if not is_png(os.path.join(out, "scaling.png")):
                 fail("mpi_scaling.py: no PNG scaling.png")
             print(f"mpi_scaling.py: {len(rows)} CSV rows: {found}")
     else:
         print("mpi_scaling.py: no mpiexec given: its run is not checked")
-    for option, value in [("--ranks", "0,2"), ("--cells", "40"), ("--steps", "x")]:
+    for option, value in [("--ranks", "0,2"), ("--cells", "40"), ("--steps", "x"), ("--repeat", "0")]:
         result = run([sys.executable, script, option, value, "--mpmflow", mpmflow])
         if result.returncode != 2 or option not in result.stderr or repr(value) not in result.stderr:
             fail(f"mpi_scaling.py {option} {value}: exit {result.returncode} (expected 2), stderr "
