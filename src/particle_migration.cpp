@@ -12,10 +12,12 @@ namespace mpmflow {
 
 OutsideTheCells::OutsideTheCells(const GridSlab& slab_, int axis_, index_t begin_, index_t end_)
     : slab(slab_), axis(axis_), begin(begin_), end(end_) {
-  const real_t origin = axis == 0 ? slab.geometry.origin_x : slab.geometry.origin_y;
-  const real_t spacing = axis == 0 ? slab.geometry.spacing_x : slab.geometry.spacing_y;
+  const GridGeometry& g = slab.geometry;
+  const real_t spacing = axis == 0 ? g.spacing_x : g.spacing_y;
+  // The faces: the slab's local nodes of the first and the end cell, as GridGeometry places nodes.
   const index_t from_cells = begin - slab.node_offset(axis), to_cells = end - slab.node_offset(axis);
-  const real_t from = origin + spacing * real_t(from_cells), to = origin + spacing * real_t(to_cells);
+  const real_t from = axis == 0 ? g.node_x(from_cells) : g.node_y(from_cells);
+  const real_t to = axis == 0 ? g.node_x(to_cells) : g.node_y(to_cells);
   surely_inside_from = from + face_margin(from, spacing, from_cells);
   surely_inside_to = to - face_margin(to, spacing, to_cells);
 }
