@@ -490,6 +490,38 @@ TEST(Blas1, SumsAndDotsAccumulateInDouble) {
   EXPECT_NEAR(dot_in_double(ones, tenths), expected, 1e-9 * expected);
 }
 
+// fill_in_order fills every entry of a View of rows (fill_rows_in_order: row by row, each thread its
+// share of the rows) and nothing outside it: the grid's state (LayoutLeft, 7 columns, a row count no
+// vector width divides), its first columns as a subview (the relaxation's sums), the counting
+// sort's LayoutRight counters, and a View of one column (Kokkos' fill). Each View holds other
+// values before; beside the subview, the columns it leaves keep theirs.
+TEST(Fills, FillInOrderFillsEveryRowAndColumnAndNothingElse) {
+  const index_t rows = 1001;
+  const NodeFieldsView state("state", rows, 7);
+  Kokkos::deep_copy(state, real_t(-1));
+  fill_in_order(state, real_t(2.5));
+  const auto state_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), state);
+  for (index_t i = 0; i < rows; ++i)
+    for (int c = 0; c < 7; ++c) ASSERT_EQ(state_host(i, c), real_t(2.5)) << i << ", " << c;
+
+  fill_in_order(Kokkos::subview(state, Kokkos::ALL, std::make_pair(0, 4)), real_t(0));
+  Kokkos::deep_copy(state_host, state);
+  for (index_t i = 0; i < rows; ++i)
+    for (int c = 0; c < 7; ++c) ASSERT_EQ(state_host(i, c), real_t(c < 4 ? 0 : 2.5)) << i << ", " << c;
+
+  const Kokkos::View<index_t**, Kokkos::LayoutRight, DeviceType> counters("counters", 37, 3);
+  Kokkos::deep_copy(counters, 5);
+  fill_in_order(counters, 0);
+  const auto counters_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), counters);
+  for (index_t i = 0; i < 37; ++i)
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(counters_host(i, c), 0) << i << ", " << c;
+
+  const RealView column("column", rows);
+  fill_in_order(column, real_t(-3));
+  const auto column_host = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), column);
+  for (index_t i = 0; i < rows; ++i) ASSERT_EQ(column_host(i), real_t(-3)) << i;
+}
+
 // Two totals over particles for sum_in_fixed_chunks: sum v_k, and sum v_k^2.
 struct SumAndSquares {
   using value_type = double[];
