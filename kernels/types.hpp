@@ -75,16 +75,25 @@ using NodeFieldsView = Kokkos::View<real_t**, Kokkos::LayoutLeft, DeviceType>;
 // (a range of indices a thread). So a thread writes the cache lines it last used itself. Kokkos'
 // own fill of such a View (3.4: a tile of two whole columns a thread) had each thread write half
 // its lines out of the other core's cache: on this 2-core VM the grid's reset of the cylinder
-// (448 x 224 cells) took 0.48-0.72 ms a step in most runs, 0.15-0.23 row by row (the history).
+// (448 x 224 cells) took 0.48-0.73 ms a step in most runs, 0.15-0.24 row by row, 0.12-0.16 with
+// the rows in blocks whose columns are vector stores (docs/performance_history.md, "Fills of rows").
 template <class ViewType>
 void fill_rows_in_order(const ViewType& view, const typename ViewType::const_value_type& value) {
   const ViewType rows = view;
   const typename ViewType::non_const_value_type fill = value;
   const int columns = static_cast<int>(view.extent(1));
+  const index_t n = static_cast<index_t>(view.extent(0));
+  // On CPUs a block of rows an index, each column's stretch of the block as vector stores; on GPUs a
+  // row a thread.
+  constexpr index_t block = cpu_code_paths ? 256 : 1;
   Kokkos::parallel_for(
-      "mpmflow::fill_rows", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(view.extent(0))),
-      KOKKOS_LAMBDA(const index_t i) {
-        for (int c = 0; c < columns; ++c) rows(i, c) = fill;
+      "mpmflow::fill_rows", Kokkos::RangePolicy<ExecutionSpace>(0, (n + block - 1) / block),
+      KOKKOS_LAMBDA(const index_t b) {
+        const index_t begin = b * block, end = begin + block < n ? begin + block : n;
+        for (int c = 0; c < columns; ++c) {
+          MPMFLOW_VECTORISE
+          for (index_t i = begin; i < end; ++i) rows(i, c) = fill;
+        }
       });
 }
 
