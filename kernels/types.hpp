@@ -86,10 +86,11 @@ void fill_rows_in_order(const ViewType& view, const typename ViewType::const_val
   // On CPUs a block of rows an index, each column's stretch of the block as vector stores; on GPUs a
   // row a thread.
   constexpr index_t block = cpu_code_paths ? 256 : 1;
+  // (The bounds without n + block or begin + block: no overflow for any row count an index_t holds.)
+  const index_t blocks = n / block + (n % block != 0 ? 1 : 0);
   Kokkos::parallel_for(
-      "mpmflow::fill_rows", Kokkos::RangePolicy<ExecutionSpace>(0, (n + block - 1) / block),
-      KOKKOS_LAMBDA(const index_t b) {
-        const index_t begin = b * block, end = begin + block < n ? begin + block : n;
+      "mpmflow::fill_rows", Kokkos::RangePolicy<ExecutionSpace>(0, blocks), KOKKOS_LAMBDA(const index_t b) {
+        const index_t begin = b * block, end = n - begin > block ? begin + block : n;
         for (int c = 0; c < columns; ++c) {
           MPMFLOW_VECTORISE
           for (index_t i = begin; i < end; ++i) rows(i, c) = fill;
