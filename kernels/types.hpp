@@ -79,6 +79,9 @@ using NodeFieldsView = Kokkos::View<real_t**, Kokkos::LayoutLeft, DeviceType>;
 // the rows in blocks whose columns are vector stores (docs/performance_history.md, "Fills of rows").
 template <class ViewType>
 void fill_rows_in_order(const ViewType& view, const typename ViewType::const_value_type& value) {
+  static_assert(ViewType::rank == 2, "fill_rows_in_order fills a View of rows (index, column)");
+  static_assert(Kokkos::SpaceAccessibility<ExecutionSpace, typename ViewType::memory_space>::accessible,
+                "fill_rows_in_order fills a View the execution space can write (not a host mirror of a GPU's)");
   const ViewType rows = view;
   const typename ViewType::non_const_value_type fill = value;
   const int columns = static_cast<int>(view.extent(1));
