@@ -49,6 +49,57 @@ void for_each_index_in_lanes(const char* label, index_t n, const Body& body) {
     for_each_index_one_by_one(label, n, body);
 }
 
+// A View of rows (index, column) set to `value`: a row (GPUs: a row a thread), or on CPUs a block
+// of rows column by column, each column's stretch of the block vector stores (GCC leaves a row's
+// loop over its columns scalar in for_each_index_in_lanes' vector lanes: `objdump -d`).
+template <class ViewType>
+struct FillRows {
+  ViewType rows;
+  typename ViewType::non_const_value_type value;
+  int columns;
+  KOKKOS_INLINE_FUNCTION void operator()(index_t i) const {
+    for (int c = 0; c < columns; ++c) rows(i, c) = value;
+  }
+  KOKKOS_INLINE_FUNCTION void fill_block(index_t first, int count) const {
+    for (int c = 0; c < columns; ++c) {
+      MPMFLOW_VECTORISE
+      for (int l = 0; l < count; ++l) rows(first + l, c) = value;
+    }
+  }
+};
+
+// `view` filled with `value` in the execution space's order, as a kernel launched there: Kokkos'
+// deep_copy without an execution space fences before and after a fill (on a GPU two waits for the
+// device, each leaving it idle while the host launches what comes next), this one does not. What the
+// host reads after it comes through a deep_copy or a reduction, which wait for it.
+// A View of rows (rank 2: the grid's columns, the relaxation's sums) is filled by blocks of
+// index_block_size rows (FillRows), each thread the rows of its share of the blocks, as the kernels
+// over nodes, cells or particles take their indices: so a thread writes the cache lines it last used
+// itself. Kokkos' own fill of such a View (3.4: a tile of two whole columns a thread) had each
+// thread write half its lines out of the other core's cache: on this 2-core VM the grid's reset of
+// the cylinder (448 x 224 cells) took 0.48-0.73 ms a step in most runs, 0.15-0.24 row by row with
+// scalar stores, 0.12-0.16 by blocks with vector stores (docs/performance_history.md, "Fills of
+// rows").
+template <class ViewType>
+void fill_in_order(const ViewType& view, const typename ViewType::const_value_type& value) {
+  if constexpr (ViewType::rank == 2) {
+    static_assert(Kokkos::SpaceAccessibility<ExecutionSpace, typename ViewType::memory_space>::accessible,
+                  "fill_in_order fills a View of rows the execution space can write (not a host mirror of a GPU's)");
+    const index_t n = static_cast<index_t>(view.extent(0));
+    const FillRows<ViewType> fill{view, value, static_cast<int>(view.extent(1))};
+    if constexpr (cpu_code_paths) {
+      constexpr int L = index_block_size;
+      Kokkos::parallel_for(
+          "mpmflow::fill_rows", Kokkos::RangePolicy<ExecutionSpace>(0, index_blocks(n)),
+          KOKKOS_LAMBDA(const index_t k) { fill.fill_block(k * L, indices_in_block(k * L, n)); });
+    } else {
+      for_each_index_one_by_one("mpmflow::fill_rows", n, fill);
+    }
+  } else {
+    Kokkos::deep_copy(ExecutionSpace(), view, value);
+  }
+}
+
 // body(i, extra...) for the i of the block [begin, begin + count) where maybe(i): the test as vector
 // lanes, then the selected indices one by one (the _in_blocks forms below).
 template <int L, class Maybe, class Body, class... Extra>

@@ -8,6 +8,7 @@
 #include <type_traits>
 #include <utility>
 
+#include "kernels/index_lanes.hpp"
 #include "kernels/types.hpp"
 
 namespace mpmflow {

@@ -70,50 +70,6 @@ using ParticleIdView = Kokkos::View<particle_id_t*, Kokkos::LayoutLeft, DeviceTy
 // Several node fields side by side: (node, component), each component column contiguous.
 using NodeFieldsView = Kokkos::View<real_t**, Kokkos::LayoutLeft, DeviceType>;
 
-// A View of rows (index, column) filled with `value`, row by row: each thread fills the rows of its
-// share of the indices, all their columns, as the kernels over nodes, cells or particles take them
-// (a range of indices a thread). So a thread writes the cache lines it last used itself. Kokkos'
-// own fill of such a View (3.4: a tile of two whole columns a thread) had each thread write half
-// its lines out of the other core's cache: on this 2-core VM the grid's reset of the cylinder
-// (448 x 224 cells) took 0.48-0.73 ms a step in most runs, 0.15-0.24 row by row, 0.12-0.16 with
-// the rows in blocks whose columns are vector stores (docs/performance_history.md, "Fills of rows").
-template <class ViewType>
-void fill_rows_in_order(const ViewType& view, const typename ViewType::const_value_type& value) {
-  static_assert(ViewType::rank == 2, "fill_rows_in_order fills a View of rows (index, column)");
-  static_assert(Kokkos::SpaceAccessibility<ExecutionSpace, typename ViewType::memory_space>::accessible,
-                "fill_rows_in_order fills a View the execution space can write (not a host mirror of a GPU's)");
-  const ViewType rows = view;
-  const typename ViewType::non_const_value_type fill = value;
-  const int columns = static_cast<int>(view.extent(1));
-  const index_t n = static_cast<index_t>(view.extent(0));
-  // On CPUs a block of rows an index, each column's stretch of the block as vector stores; on GPUs a
-  // row a thread.
-  constexpr index_t block = cpu_code_paths ? 256 : 1;
-  // (The bounds without n + block or begin + block: no overflow for any row count an index_t holds.)
-  const index_t blocks = n / block + (n % block != 0 ? 1 : 0);
-  Kokkos::parallel_for(
-      "mpmflow::fill_rows", Kokkos::RangePolicy<ExecutionSpace>(0, blocks), KOKKOS_LAMBDA(const index_t b) {
-        const index_t begin = b * block, end = n - begin > block ? begin + block : n;
-        for (int c = 0; c < columns; ++c) {
-          MPMFLOW_VECTORISE
-          for (index_t i = begin; i < end; ++i) rows(i, c) = fill;
-        }
-      });
-}
-
-// `view` filled with `value` in the execution space's order, as a kernel launched there: Kokkos'
-// deep_copy without an execution space fences before and after a fill (on a GPU two waits for the
-// device, each leaving it idle while the host launches what comes next), this one does not. What the
-// host reads after it comes through a deep_copy or a reduction, which wait for it. A View of rows
-// is filled row by row (fill_rows_in_order).
-template <class ViewType>
-void fill_in_order(const ViewType& view, const typename ViewType::const_value_type& value) {
-  if constexpr (ViewType::rank == 2)
-    fill_rows_in_order(view, value);
-  else
-    Kokkos::deep_copy(ExecutionSpace(), view, value);
-}
-
 // A list of indices made on the host (nodes, particles), as a View of the execution space.
 inline IndexView to_device_indices(const char* label, const std::vector<index_t>& host) {
   IndexView device(std::string(label), host.size());

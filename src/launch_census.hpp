@@ -51,7 +51,7 @@ class LaunchCensus {
   long long view_copies() const { return view_copies_; }
   // Fills of a View from a value through deep_copy without an execution space (Kokkos names their
   // source "Scalar"; "(none)" where an execution space is given): Kokkos fences before and after
-  // each, on a GPU two waits for the device (fill_in_order, kernels/types.hpp, fills without them).
+  // each, on a GPU two waits for the device (fill_in_order, kernels/index_lanes.hpp, fills without them).
   long long fenced_fills() const { return fenced_fills_; }
   // The counts by label ("copy DST <- SRC" for a copy), where by_label was set.
   const std::map<std::string, long long>& by_label() const { return by_label_counts_; }

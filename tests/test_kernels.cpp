@@ -490,10 +490,11 @@ TEST(Blas1, SumsAndDotsAccumulateInDouble) {
   EXPECT_NEAR(dot_in_double(ones, tenths), expected, 1e-9 * expected);
 }
 
-// fill_in_order fills every entry of a View of rows (fill_rows_in_order: row by row, each thread its
-// share of the rows) and nothing outside it: the grid's state (LayoutLeft, 7 columns, a row count
-// neither a vector's width nor the CPUs' block of 256 rows divides), its first columns as a subview (the relaxation's sums), the counting
-// sort's LayoutRight counters, and a View of one column (Kokkos' fill). Each View holds other
+// fill_in_order fills every entry of a View of rows (FillRows: by blocks of rows on CPUs, a row a
+// thread on GPUs) and nothing outside it: the grid's state (LayoutLeft, 7 columns, a row count
+// neither a vector's width nor index_block_size divides), its first columns as a subview (the
+// relaxation's sums), the counting sort's LayoutRight counters, and a View of one column (Kokkos'
+// fill). Each View holds other
 // values before; beside the subview, the columns it leaves keep theirs.
 TEST(Fills, FillInOrderFillsEveryRowAndColumnAndNothingElse) {
   const index_t rows = 1001;
