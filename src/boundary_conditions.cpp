@@ -468,6 +468,19 @@ struct ObstaclePressureReaction {
   }
 };
 
+// PressureSideNodes::node_entry. (A function of its own: nvcc takes no device lambda in a
+// constructor.)
+Kokkos::View<int*, DeviceType> entries_by_node(const PressureSideNodes& sides, const GridGeometry& geometry) {
+  const Kokkos::View<int*, DeviceType> entry(Kokkos::view_alloc(Kokkos::WithoutInitializing, "pressure_side_node_entry"),
+                                             geometry.num_nodes());
+  Kokkos::parallel_for(
+      "pressure_side_node_entry", Kokkos::RangePolicy<ExecutionSpace>(0, geometry.num_nodes()),
+      KOKKOS_LAMBDA(const index_t node) {
+        entry(node) = static_cast<int>(sides.entry(geometry.node_i_of(node), geometry.node_j_of(node)));
+      });
+  return entry;
+}
+
 }  // namespace
 
 void SideConditionBands::add(const IndexRange2D& nodes, SideCondition c, int axis) {
@@ -584,6 +597,7 @@ PressureSideNodes::PressureSideNodes(const GridSlab& slab, const std::array<Boun
     entries += 2 * layers * nodes_along(s == left_side || s == right_side ? cells_y : cells_x);
     ++count;
   }
+  if (count > 0) node_entry = entries_by_node(*this, slab.geometry);
 }
 
 void GridBoundaryConditions::clear_pressure_side_gradients() const { fill_in_order(pressure_side_gradients_, 0LL); }

@@ -157,16 +157,20 @@ struct PressureSideNodes : GradientUnits {
   Kokkos::Array<index_t, num_sides> first_entry = {};
   index_t entries = 0;
   index_t node_offset_x = 0, node_offset_y = 0, cells_x = 0, cells_y = 0;
+  // By local node: entry(i, j) of the node, made once, so that the volume gradients' particles
+  // look each stencil node's entry up (entry_of) instead of taking the node's (i, j) apart by a
+  // division and walking the sides (the cylinder's boundary-conditions phase about 0.1 ms a step
+  // faster: docs/performance_history.md, "The volume gradients' entries").
+  // Empty where no side is a pressure side.
+  Kokkos::View<int*, DeviceType> node_entry;
 
   PressureSideNodes() = default;
   PressureSideNodes(const GridSlab& slab, const std::array<BoundaryType, num_sides>& side_type,
                     const GasState& free_stream);
 
   KOKKOS_INLINE_FUNCTION static index_t nodes_along(index_t cells) { return cells + 1 + 2 * GridSlab::ghost_layers; }
-  // The entry of local node `node` (as ObstaclePressureNodes::entry_of).
-  KOKKOS_INLINE_FUNCTION index_t entry_of(const GridGeometry& geometry, index_t node) const {
-    return entry(geometry.node_i_of(node), geometry.node_j_of(node));
-  }
+  // The entry of local node `node` (as ObstaclePressureNodes::entry_of), where a pressure side is.
+  KOKKOS_INLINE_FUNCTION index_t entry_of(index_t node) const { return node_entry(node); }
   KOKKOS_INLINE_FUNCTION index_t entry(index_t i, index_t j) const {
     int slot;
     return entry(i, j, slot);
@@ -205,7 +209,7 @@ struct ObstaclePressureNodes : GradientUnits {
   ObstaclePressureNodes() = default;
   ObstaclePressureNodes(const GridSlab& slab, const ObstacleGrid& obstacles, const PressureSideNodes& side_nodes);
 
-  KOKKOS_INLINE_FUNCTION index_t entry_of(const GridGeometry&, index_t node) const { return entry(node); }
+  KOKKOS_INLINE_FUNCTION index_t entry_of(index_t node) const { return entry(node); }
 };
 
 // What step 4 sums from the particles for the gas outside the pressure sides and for the bodies:

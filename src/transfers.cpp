@@ -409,7 +409,6 @@ struct AddVolumeGradients {
       decltype(Kokkos::Experimental::create_scatter_view(std::declval<Kokkos::View<long long*, DeviceType>>()));
   Shape shape;
   BoundaryVolumeGradients sums;
-  GridGeometry geometry;
   RealView x, y, mass, density;
   IndexView cell;
   Scatter side_scatter, obstacle_scatter;
@@ -427,7 +426,7 @@ struct AddVolumeGradients {
                                   const Scatter& scatter) const {
     auto access = scatter.access();
     for (int k = 0; k < stencil.size; ++k) {
-      const index_t entry = nodes.entry_of(geometry, stencil.node(k));
+      const index_t entry = nodes.entry_of(stencil.node(k));
       if (entry < 0) continue;
       access(entry) += nodes.units(volume * stencil.grad_x(k));
       access(entry + 1) += nodes.units(volume * stencil.grad_y(k));
@@ -442,7 +441,6 @@ void sum_boundary_volume_gradients(const Shape& shape, const ParticleState& pt, 
   using Adder = AddVolumeGradients<Shape>;
   const Adder add_particle{shape,
                            sums,
-                           shape.grid.geometry,
                            pt.position_x,
                            pt.position_y,
                            pt.mass,

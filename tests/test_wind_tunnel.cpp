@@ -1045,7 +1045,7 @@ TEST(GridConditions, ANodeUnderTwoSidesTakesBothConditionsInTheSidesOrder) {
 // sums are those of every particle, bit for bit (integers), for each shape; an outflow side and a
 // far-field side the free stream leaves through, a circle and a square; the tunnel whole and cut
 // into slabs along x and along y. And the marks stand where a stencil may reach such a node, not
-// far from them.
+// far from them. The sides' entries are looked up by node: each node's is the one its (i, j) give.
 TEST(GridConditions, TheCellsMarkedForTheVolumeGradientsHoldEveryParticleThatAddsToThem) {
   for (const char* shape : {"linear", "gimp", "bspline"}) {
     const CaseConfig config = tunnel_config(
@@ -1069,6 +1069,12 @@ TEST(GridConditions, TheCellsMarkedForTheVolumeGradientsHoldEveryParticleThatAdd
       const auto transfers = make_transfer_kernels(config, slab.geometry, fields);
       const BoundaryVolumeGradients marked = slab_state.grid_boundaries().volume_gradients();
       ASSERT_TRUE(marked.side_nodes.any_crossed) << where;
+      // The entry each node's stencils look up (PressureSideNodes::entry_of) is its (i, j)'s.
+      const auto node_entry = host_copy(marked.side_nodes.node_entry);
+      ASSERT_EQ(node_entry.extent(0), static_cast<size_t>(slab.geometry.num_nodes())) << where;
+      for (index_t n = 0; n < slab.geometry.num_nodes(); ++n)
+        ASSERT_EQ(node_entry(n), marked.side_nodes.entry(slab.geometry.node_i_of(n), slab.geometry.node_j_of(n)))
+            << where << ", node " << n;
       // The same sums with every cell marked for both.
       BoundaryVolumeGradients every = marked;
       const Kokkos::View<unsigned char*, DeviceType> all_cells("all_cells", marked.cell_reach.extent(0));
