@@ -517,22 +517,18 @@ GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const G
       pressure_side_gradients_host_(host_mirror(pressure_side_gradients_)),
       obstacle_pressure_nodes_(slab, obstacles, pressure_side_nodes_),
       obstacle_pressure_gradients_("obstacle_pressure_gradients", 2 * obstacle_pressure_nodes_.count) {
-  // The marks, node by node on the host, once (BoundaryVolumeGradients, gas_outside_nodes).
+  // The cells' marks, node by node on the host, once (BoundaryVolumeGradients).
   const GridGeometry& geo = slab.geometry;
   const auto obstacle_entry = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), obstacle_pressure_nodes_.entry);
   Kokkos::View<unsigned char*, DeviceType> cells("volume_gradient_cells", geo.num_cells());
-  Kokkos::View<unsigned char*, DeviceType> outside("gas_outside_nodes", geo.num_nodes());
   const auto cells_host = Kokkos::create_mirror_view(cells);
-  const auto outside_host = Kokkos::create_mirror_view(outside);
   Kokkos::deep_copy(cells_host, 0);
-  Kokkos::deep_copy(outside_host, 0);
   constexpr index_t r = widest_stencil_reach;
   for (index_t j = 0; j < geo.nodes_y; ++j)
     for (index_t i = 0; i < geo.nodes_x; ++i) {
       const index_t node = geo.node_index(i, j);
       int slot = 0;
       const bool side_node = pressure_side_nodes_.entry(i, j, slot) >= 0;
-      outside_host(node) = side_node ? 1 : 0;
       const unsigned char mark =
           (side_node && pressure_side_nodes_.crossed[slot] ? BoundaryVolumeGradients::reaches_side : 0) |
           (obstacle_entry.extent(0) > 0 && obstacle_entry(node) >= 0 ? BoundaryVolumeGradients::reaches_obstacle : 0);
@@ -543,9 +539,7 @@ GridBoundaryConditions::GridBoundaryConditions(const CaseConfig& config, const G
           cells_host(ci + geo.cells_x() * cj) |= mark;
     }
   Kokkos::deep_copy(cells, cells_host);
-  Kokkos::deep_copy(outside, outside_host);
   volume_gradient_cells_ = cells;
-  gas_outside_nodes_ = outside;
 }
 
 ObstaclePressureNodes::ObstaclePressureNodes(const GridSlab& slab, const ObstacleGrid& obstacles,
@@ -597,7 +591,7 @@ PressureSideNodes::PressureSideNodes(const GridSlab& slab, const std::array<Boun
     entries += 2 * layers * nodes_along(s == left_side || s == right_side ? cells_y : cells_x);
     ++count;
   }
-  if (count > 0) node_entry = entries_by_node(*this, slab.geometry);
+  node_entry = entries_by_node(*this, slab.geometry);
 }
 
 void GridBoundaryConditions::clear_pressure_side_gradients() const { fill_in_order(pressure_side_gradients_, 0LL); }

@@ -157,11 +157,13 @@ struct PressureSideNodes : GradientUnits {
   Kokkos::Array<index_t, num_sides> first_entry = {};
   index_t entries = 0;
   index_t node_offset_x = 0, node_offset_y = 0, cells_x = 0, cells_y = 0;
-  // By local node: entry(i, j) of the node, made once, so that the volume gradients' particles
-  // look each stencil node's entry up (entry_of) instead of taking the node's (i, j) apart by a
-  // division and walking the sides (the cylinder's boundary-conditions phase about 0.1 ms a step
-  // faster: docs/performance_history.md, "The volume gradients' entries").
-  // Empty where no side is a pressure side.
+  // By local node: entry(i, j) of the node (-1 everywhere where no side is a pressure side), made
+  // once: the volume gradients' particles look each stencil node's entry up (entry_of) instead of
+  // taking the node's (i, j) apart by a division and walking the sides (the cylinder's
+  // boundary-conditions phase about 0.1 ms a step faster: docs/performance_history.md, "The volume
+  // gradients' entries"), and the volume correction reads which nodes a side holds from it, where
+  // the gas outside fills the space the particles leave (compute_volume_fraction). The sides'
+  // lines are fixed for the run.
   Kokkos::View<int*, DeviceType> node_entry;
 
   PressureSideNodes() = default;
@@ -169,7 +171,7 @@ struct PressureSideNodes : GradientUnits {
                     const GasState& free_stream);
 
   KOKKOS_INLINE_FUNCTION static index_t nodes_along(index_t cells) { return cells + 1 + 2 * GridSlab::ghost_layers; }
-  // The entry of local node `node` (as ObstaclePressureNodes::entry_of), where a pressure side is.
+  // The entry of local node `node` (as ObstaclePressureNodes::entry_of).
   KOKKOS_INLINE_FUNCTION index_t entry_of(index_t node) const { return node_entry(node); }
   KOKKOS_INLINE_FUNCTION index_t entry(index_t i, index_t j) const {
     int slot;
@@ -268,10 +270,6 @@ class GridBoundaryConditions {
     return {pressure_side_nodes_, pressure_side_gradients_, obstacle_pressure_nodes_, obstacle_pressure_gradients_,
             volume_gradient_cells_};
   }
-  // By local node: 1 where a pressure side's gas outside fills the space the particles leave
-  // (PressureSideNodes holds the node), else 0 (the volume correction's exception,
-  // compute_volume_fraction). Marked once: the sides' lines are fixed for the run.
-  const Kokkos::View<const unsigned char*, DeviceType>& gas_outside_nodes() const { return gas_outside_nodes_; }
 
  private:
   GridSlab slab_;
@@ -286,7 +284,7 @@ class GridBoundaryConditions {
   Kokkos::View<long long*, DeviceType>::HostMirror pressure_side_gradients_host_;
   ObstaclePressureNodes obstacle_pressure_nodes_;
   Kokkos::View<long long*, DeviceType> obstacle_pressure_gradients_;
-  Kokkos::View<const unsigned char*, DeviceType> volume_gradient_cells_, gas_outside_nodes_;
+  Kokkos::View<const unsigned char*, DeviceType> volume_gradient_cells_;
 };
 
 // A particle's cell, which the next step's kernels start from: its local cell, or left_the_domain

@@ -68,17 +68,17 @@ void compute_remap_velocity(const GridFields& fields, real_t mass_threshold, rea
 }
 
 void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area,
-                             const Kokkos::View<const unsigned char*, DeviceType>& gas_outside_nodes) {
+                             const Kokkos::View<const int*, DeviceType>& pressure_side_entry) {
   const NodeFieldsView state = fields.state, per_unit_mass = fields.per_unit_mass;
   const RealView gas_volume = node_gas_volume;
   const real_t smallest = real_t(0.25) * cell_area;
-  const Kokkos::View<const unsigned char*, DeviceType> gas_outside = gas_outside_nodes;
+  const Kokkos::View<const int*, DeviceType> side_entry = pressure_side_entry;
   Kokkos::parallel_for(
       "grid_volume_fraction", Kokkos::RangePolicy<ExecutionSpace>(0, static_cast<index_t>(state.extent(0))),
       KOKKOS_LAMBDA(const index_t i) {
         const real_t volume = state(i, GridFields::volume);
         per_unit_mass(i, GridFields::volume_fraction) =
-            node_volume_fraction(volume, gas_volume(i), smallest, gas_outside(i) != 0);
+            node_volume_fraction(volume, gas_volume(i), smallest, side_entry(i) >= 0);
         per_unit_mass(i, GridFields::mean_pressure) =
             volume > 0 ? state(i, GridFields::pressure_volume) / volume : real_t(0);
       });

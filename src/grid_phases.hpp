@@ -53,10 +53,10 @@ KOKKOS_INLINE_FUNCTION real_t node_volume_fraction(real_t particle_volume, real_
 // The volume fraction of every node into GridFields::volume_fraction, and its particles'
 // volume-weighted mean pressure into GridFields::mean_pressure (0 without particle volume): what
 // the volume correction reads (volume_corrected_density).
-// gas_outside_nodes(i) is 1 at the nodes of the pressure sides (node_volume_fraction's gas_outside;
-// GridBoundaryConditions::gas_outside_nodes).
+// pressure_side_entry(i) is 0 or more at the nodes of the pressure sides (node_volume_fraction's
+// gas_outside; PressureSideNodes::node_entry).
 void compute_volume_fraction(const GridFields& fields, const RealView& node_gas_volume, real_t cell_area,
-                             const Kokkos::View<const unsigned char*, DeviceType>& gas_outside_nodes);
+                             const Kokkos::View<const int*, DeviceType>& pressure_side_entry);
 
 // Copies the momentum and force columns of `state` (before step 4) or the remapped momentum
 // (before step 9) of the nodes the boundary conditions may change into `before_conditions`.

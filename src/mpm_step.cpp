@@ -82,7 +82,7 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
     compute_remap_velocity(grid, mass_threshold, dt, settings.thermodynamics.energy_consistent);
     if (settings.thermodynamics.volume_correction)
       compute_volume_fraction(grid, slab.obstacles().node_gas_volume, slab.slab().cell_area(),
-                              slab.grid_boundaries().gas_outside_nodes());
+                              slab.grid_boundaries().pressure_side_nodes().node_entry);
   }
   double work_of_conditions = 0;
   if (energy_budget) {
