@@ -6,7 +6,6 @@
 #include <stdexcept>
 
 #include "gas_physics.hpp"
-#include <Kokkos_ScatterView.hpp>
 
 #include "kernels/index_lanes.hpp"
 #include "kernels/particle_compaction.hpp"
@@ -175,14 +174,15 @@ struct FarFieldStrips {
 // loop over the sides alone, the pass took 1.3 times as long as the three passes of one side each
 // that it replaced).
 void add_far_field_strip_volumes(const FarFieldStrips& strips, const ParticleState& pt, index_t first, index_t last,
-                                 const GridSlab& slab, const Kokkos::View<long long*, DeviceType>& volume) {
+                                 const GridSlab& slab, const Kokkos::View<long long*, DeviceType>& volume,
+                                 KeptScatterView<long long>& kept_scatter) {
   if (strips.count == 0 || first >= last) return;
   const DomainBox domain(slab);
   const real_t hx = slab.geometry.spacing_x, hy = slab.geometry.spacing_y;
   const real_t reach_x = real_t(1.5) * hx, reach_y = real_t(1.5) * hy;  // (a half row is at most half a cell)
   const double units_per_volume = 1.0 / (double(slab.cell_area()) * strip_volume_unit);
   const RealView x = pt.position_x, y = pt.position_y, mass = pt.mass, density = pt.density;
-  auto scatter = Kokkos::Experimental::create_scatter_view(volume);
+  const auto scatter = kept_scatter.into(volume);
   for_each_index_where(
       "far_field_strip_volume", first, last,
       KOKKOS_LAMBDA(const index_t p) {  // a superset of the strips below: depth < 1.5 depth_of_strip, whatever its sign
@@ -217,8 +217,7 @@ void add_far_field_strip_volumes(const FarFieldStrips& strips, const ParticleSta
               static_cast<long long>(share * double(mass(p)) / double(density(p)) * units_per_volume + 0.5);
         }
       });
-  Kokkos::View<long long*, DeviceType> target = volume;  // (contribute takes the View by non-const reference)
-  Kokkos::Experimental::contribute(target, scatter);
+  kept_scatter.contribute_into(volume);
 }
 
 // The sums of totals_of_particles in one reduction (one launch, and one wait for its result on a
@@ -396,7 +395,7 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
   }
   if (strips.count > 0) {  // (no far-field side, as in the cylinder: nothing to zero every step)
     fill_in_order(strip_volume_, 0LL);
-    add_far_field_strip_volumes(strips, pt, 0, pt.count, slab, strip_volume_);
+    add_far_field_strip_volumes(strips, pt, 0, pt.count, slab, strip_volume_, strip_volume_scatter_);
   }
   index_t measured = pt.count;  // particles [0, measured) are in strip_volume_
   for (const EntrySide& side : sides_) {
@@ -424,7 +423,7 @@ void OpenBoundaries::enter(ParticleState& pt, const SlabState& slab_state, real_
     // and took nothing back: the diagonal stream of WindTunnel.AStreamCrossingFarFieldSidesKeepsItsState
     // gained 10.6 % of its mass by t = 3.
     if (side.fills_strip) {
-      add_far_field_strip_volumes(strips, pt, measured, pt.count, slab, strip_volume_);
+      add_far_field_strip_volumes(strips, pt, measured, pt.count, slab, strip_volume_, strip_volume_scatter_);
       measured = pt.count;
       const auto volume = Kokkos::subview(strip_volume_host_, cells);
       Kokkos::deep_copy(volume, Kokkos::subview(strip_volume_, cells));

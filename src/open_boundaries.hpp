@@ -43,6 +43,7 @@
 #include <vector>
 
 #include "boundary_conditions.hpp"
+#include "kernels/kept_scatter_view.hpp"
 #include "case_config.hpp"
 #include "counter_random.hpp"
 #include "diagnostics.hpp"
@@ -167,6 +168,7 @@ class OpenBoundaries {
   Kokkos::View<double*, DeviceType>::HostMirror entry_cells_host_;
   Kokkos::View<long long*, DeviceType> strip_volume_;  // per entry cell: its far-field strip's volume
   Kokkos::View<long long*, DeviceType>::HostMirror strip_volume_host_;
+  KeptScatterView<long long> strip_volume_scatter_;  // the additions into strip_volume_
   BoundaryFluxes fluxes_;
   IndexView leaving_;  // the list of the particles that left (select_indices), kept from step to step
   IndexView fillers_;  // the staying particles that fill their places (plan_hole_filling), kept likewise

@@ -4,6 +4,7 @@
 #include <utility>
 
 #include "gas_physics.hpp"
+#include "kernels/kept_scatter_view.hpp"
 #include "kernels/particle_sort.hpp"
 #include "kernels/transfer_kernels.hpp"
 
@@ -405,8 +406,7 @@ GimpShape make_shape<GimpShape>(const CaseConfig& config, const GridGeometry& ge
 // both), through ScatterViews of integers: their sums are the same in any order.
 template <class Shape>
 struct AddVolumeGradients {
-  using Scatter =
-      decltype(Kokkos::Experimental::create_scatter_view(std::declval<Kokkos::View<long long*, DeviceType>>()));
+  using Scatter = KeptScatterView<long long>::Scatter;
   Shape shape;
   BoundaryVolumeGradients sums;
   RealView x, y, mass, density;
@@ -434,9 +434,12 @@ struct AddVolumeGradients {
   }
 };
 
-// TransferKernels::add_boundary_volume_gradients with the case's shape.
+// TransferKernels::add_boundary_volume_gradients with the case's shape, through ScatterViews kept
+// by the caller.
 template <class Shape>
-void sum_boundary_volume_gradients(const Shape& shape, const ParticleState& pt, const BoundaryVolumeGradients& sums) {
+void sum_boundary_volume_gradients(const Shape& shape, const ParticleState& pt, const BoundaryVolumeGradients& sums,
+                                   KeptScatterView<long long>& side_scatter,
+                                   KeptScatterView<long long>& obstacle_scatter) {
   if (pt.count == 0 || sums.cell_reach.extent(0) == 0) return;
   using Adder = AddVolumeGradients<Shape>;
   const Adder add_particle{shape,
@@ -446,8 +449,8 @@ void sum_boundary_volume_gradients(const Shape& shape, const ParticleState& pt, 
                            pt.mass,
                            pt.density,
                            pt.cell,
-                           Kokkos::Experimental::create_scatter_view(sums.side_gradients),
-                           Kokkos::Experimental::create_scatter_view(sums.obstacle_gradients)};
+                           side_scatter.into(sums.side_gradients),
+                           obstacle_scatter.into(sums.obstacle_gradients)};
   const IndexView cell = pt.cell;
   const Kokkos::View<const unsigned char*, DeviceType> reach = sums.cell_reach;
   // (One by one on every back-end: the test's loads of a byte by cell keep its loop scalar anyway.
@@ -457,11 +460,8 @@ void sum_boundary_volume_gradients(const Shape& shape, const ParticleState& pt, 
   for_each_index_where_one_by_one(
       "boundary_volume_gradients", 0, pt.count, KOKKOS_LAMBDA(const index_t p) { return reach(cell(p)) != 0; },
       add_particle);
-  // (contribute takes the Views and the ScatterViews by non-const reference.)
-  Kokkos::View<long long*, DeviceType> side = sums.side_gradients, obstacle = sums.obstacle_gradients;
-  typename Adder::Scatter side_scatter = add_particle.side_scatter, obstacle_scatter = add_particle.obstacle_scatter;
-  Kokkos::Experimental::contribute(side, side_scatter);
-  Kokkos::Experimental::contribute(obstacle, obstacle_scatter);
+  side_scatter.contribute_into(sums.side_gradients);
+  obstacle_scatter.contribute_into(sums.obstacle_gradients);
 }
 
 // ---- How P2G accumulates ----------------------------------------------------------------------
@@ -648,8 +648,9 @@ class Transfers final : public TransferKernels {
     in_doubt_.contribute_into(in_doubt_count_);
   }
 
-  void add_boundary_volume_gradients(const ParticleState& pt, const BoundaryVolumeGradients& sums) const override {
-    sum_boundary_volume_gradients(current_shape(shape_, pt), pt, sums);
+  void add_boundary_volume_gradients(const ParticleState& pt, const BoundaryVolumeGradients& sums) override {
+    sum_boundary_volume_gradients(current_shape(shape_, pt), pt, sums, side_gradient_scatter_,
+                                  obstacle_gradient_scatter_);
   }
 
   index_t particles_in_doubt() const override {
@@ -765,6 +766,8 @@ class Transfers final : public TransferKernels {
   // step on a GPU (on CPUs the View itself).
   IndexView::HostMirror in_doubt_count_host_;
   DoubtCounter in_doubt_;
+  // Step 4's additions into the volume gradients (add_boundary_volume_gradients).
+  KeptScatterView<long long> side_gradient_scatter_, obstacle_gradient_scatter_;
 };
 
 template <class Accumulation>

@@ -84,8 +84,7 @@ class TransferKernels {
   // gas outside acts) and on the obstacles' pressure nodes (BoundaryVolumeGradients, from
   // GridBoundaryConditions), added into their gradients in their integer units: one pass over the
   // particles' cells, the stencils only of the particles of the cells it marks.
-  virtual void add_boundary_volume_gradients(const ParticleState& particles,
-                                             const BoundaryVolumeGradients& sums) const = 0;
+  virtual void add_boundary_volume_gradients(const ParticleState& particles, const BoundaryVolumeGradients& sums) = 0;
 
   // The P2G accumulation in use ("automatic" resolved for this execution space).
   virtual P2GStrategy strategy() const = 0;

@@ -774,6 +774,44 @@ TEST(OpenSides, ParticlesLeavingAreRemovedAndCounted) {
   EXPECT_NEAR(open_sides.fluxes().entered.mass, 48 * 1.4 * 0.01 / 4, 1e-12);
 }
 
+// The allocations a tracker counted, by label, for a failure's message.
+std::string allocations_by_label(const AllocationTracker& allocations) {
+  std::string listed;
+  for (const auto& [label, count] : allocations.allocation_count_by_label())
+    listed += " " + label + " (" + std::to_string(count) + ")";
+  return listed;
+}
+
+// The open sides run every step, and the far-field sides' strips are measured through a
+// ScatterView they keep (KeptScatterView): once the lists have grown, an exchange of as many
+// particles allocates nothing (on a GPU an allocation and its free cost more than the small
+// kernels of a side; made for each call, the ScatterView's copies were allocations every step on
+// CPUs).
+TEST(OpenSides, ASecondExchangeOfAsManyParticlesAllocatesNothing) {
+  const CaseConfig config = tunnel_config(R"(, "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"},
+      "bottom": {"type": "far_field"}, "top": {"type": "far_field"}})");
+  const GridSlab slab = make_grid_slab(config.domain, 0, 40);
+  const SlabState slab_state(config, slab);
+  OpenBoundaries open_sides(config, slab);
+  const real_t dt = 0.02;
+  for (int round = 0; round < 2; ++round) {
+    ParticleState pt = create_initial_particles(config, slab);  // the same particles each round
+    pt.reserve(2 * pt.count);  // room for those entering: the particle Views do not grow
+    // A particle in each column of the right side's cells leaves through it.
+    auto x = host_copy(pt.position_x);
+    for (index_t k = 0; k < pt.count; k += 10) x(k) = real_t(4.01);
+    Kokkos::deep_copy(pt.position_x, x);
+    apply_particle_boundaries(slab_state.particle_boundaries(), pt, dt);
+    const index_t before = pt.count;
+    const AllocationTracker allocations;
+    open_sides.exchange(pt, slab_state, dt, round + 1);
+    EXPECT_NE(pt.count, before) << "round " << round << ": nothing left or entered, the test covers little";
+    if (round == 1)
+      EXPECT_EQ(allocations.allocation_count(), 0) << "allocations in the second exchange:"
+                                                   << allocations_by_label(allocations);
+  }
+}
+
 // Field f's entry p of the first n: 1000 f + p (distinct across fields and particles; exact in every
 // field type), so that an entry tells which field and particle it came from.
 void number_every_field(const ParticleState& pt, index_t n) {
@@ -1126,6 +1164,48 @@ TEST(GridConditions, TheCellsMarkedForTheVolumeGradientsHoldEveryParticleThatAdd
         }
       }
       EXPECT_GT(far + by_outlet + by_circle, 0) << where;
+    }
+  }
+}
+
+// Step 4 adds into the volume gradients every step through ScatterViews the transfers keep
+// (KeptScatterView): a second addition allocates nothing (made for each call, a duplicated
+// ScatterView's copies were two allocations a step on CPUs), and its sums are the first's: the
+// kept copies start from zero each time. Another View of sums (the second slab's, as after a
+// rebalance) takes a ScatterView of its own: the same sums there too.
+TEST(GridConditions, ASecondAdditionOfTheVolumeGradientsAllocatesNothingAndSumsTheSame) {
+  const CaseConfig config =
+      tunnel_config(R"(, "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"},
+          "bottom": {"type": "slip_wall"}, "top": {"type": "slip_wall"}},
+          "obstacles": [{"type": "circle", "centre": [3.2, 1], "radius": 0.3}])");
+  const GridSlab slab = make_grid_slab(config.domain, 0, 0, 40);
+  const SlabState slab_state(config, slab);
+  const ParticleState pt = create_initial_particles(config, slab);
+  GridFields fields(slab.geometry);
+  const auto transfers = make_transfer_kernels(config, slab.geometry, fields);
+  const BoundaryVolumeGradients sums = slab_state.grid_boundaries().volume_gradients();
+  BoundaryVolumeGradients elsewhere = sums;  // the same marks, other Views of sums
+  elsewhere.side_gradients = Kokkos::View<long long*, DeviceType>("side", sums.side_gradients.extent(0));
+  elsewhere.obstacle_gradients = Kokkos::View<long long*, DeviceType>("obstacle", sums.obstacle_gradients.extent(0));
+  std::vector<long long> first;
+  for (int round = 0; round < 4; ++round) {
+    const BoundaryVolumeGradients& into = round < 3 ? sums : elsewhere;
+    Kokkos::deep_copy(into.side_gradients, 0);
+    Kokkos::deep_copy(into.obstacle_gradients, 0);
+    const AllocationTracker allocations;
+    transfers->add_boundary_volume_gradients(pt, into);
+    if (round > 0 && round < 3)
+      EXPECT_EQ(allocations.allocation_count(), 0) << "round " << round << ":" << allocations_by_label(allocations);
+    std::vector<long long> added;
+    for (const auto& view : {into.side_gradients, into.obstacle_gradients}) {
+      const auto host = host_copy(view);
+      added.insert(added.end(), host.data(), host.data() + host.extent(0));
+    }
+    if (round == 0) {
+      first = added;
+      EXPECT_GT(std::count_if(first.begin(), first.end(), [](long long g) { return g != 0; }), 20);
+    } else {
+      EXPECT_EQ(added, first) << "round " << round;
     }
   }
 }
