@@ -86,6 +86,7 @@ std::vector<long long> ParallelContext::all_gather(const std::vector<long long>&
     offsets[r] = static_cast<int>(total);
     total += counts[r];
   }
+  if (total == 0) return result;  // (every rank knows it: no second exchange)
   result.resize(static_cast<size_t>(total));
   MPI_Allgatherv(values.data(), static_cast<int>(values.size()), MPI_LONG_LONG, result.data(), sizes.data(),
                  offsets.data(), MPI_LONG_LONG, comm_);

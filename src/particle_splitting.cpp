@@ -88,22 +88,18 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
             "split_list", 0, count, KOKKOS_LAMBDA(const index_t p) { return rule.splits(before, p); }, parent_)
             .extent(0));
   }
-  const long long num_global = context.sum(static_cast<long long>(num_local));
-  if (num_global == 0) return 0;
-
   // The pieces' ids: -1 - 2 n and below, n = splits so far + the rank of their parent's id among all
   // parents, a parent splitting in four counted twice; and where each parent's new pieces go among
   // the appended particles.
   // (In Views kept from step to step: splitting runs every step.)
   const size_t num_parents = static_cast<size_t>(num_local);
-  new_id_.hold(num_parents, "split_new_id");
-  first_new_.hold(num_parents, "split_first_new");
-  const ParticleIdView new_id = new_id_.part(num_parents);
-  const IndexView first_new = first_new_.part(num_parents);
   const IndexView parent = parent_;
-  index_t num_new = 0;
-  long long splits_made = 0;
-  {
+  std::vector<long long> local;  // this rank's parents' ids, one a split
+  if (num_parents > 0) {
+    new_id_.hold(num_parents, "split_new_id");
+    first_new_.hold(num_parents, "split_first_new");
+    const ParticleIdView new_id = new_id_.part(num_parents);
+    const IndexView first_new = first_new_.part(num_parents);
     const ParticleState before = particles;
     Kokkos::parallel_for(
         "split_parent_ids", Kokkos::RangePolicy<ExecutionSpace>(0, num_local), KOKKOS_LAMBDA(const index_t k) {
@@ -114,14 +110,24 @@ long long ParticleSplitting::split(ParticleState& particles, const ParticleBound
     const auto host_first = first_new_.host_part(num_parents);
     Kokkos::deep_copy(host_id, new_id);
     Kokkos::deep_copy(host_first, first_new);
-    std::vector<long long> local;
     local.reserve(2 * num_parents);
     for (size_t k = 0; k < num_parents; ++k) {
       local.push_back(host_id(k));
       // A split in four numbers two splits.
       if (host_first(k) == split_pieces(split_both_axes) - 1) local.push_back(host_id(k));
     }
-    std::vector<long long> all = context.all_gather(local);
+  }
+  // Every rank's, in one exchange (empty where no particle splits anywhere: no count summed over
+  // the ranks first, a collective a step fewer).
+  std::vector<long long> all = context.all_gather(local);
+  if (all.empty()) return 0;
+  const ParticleIdView new_id = new_id_.part(num_parents);
+  const IndexView first_new = first_new_.part(num_parents);
+  index_t num_new = 0;
+  long long splits_made = 0;
+  {
+    const auto host_id = new_id_.host_part(num_parents);
+    const auto host_first = first_new_.host_part(num_parents);
     std::sort(all.begin(), all.end());
     for (size_t k = 0; k < num_parents; ++k) {
       const long long rank = std::lower_bound(all.begin(), all.end(), host_id(k)) - all.begin();
