@@ -25,6 +25,15 @@ double ParallelContext::max(double value) const {
   return value;
 }
 
+void ParallelContext::max_in_place(double* values, int count) const {
+#ifdef MPMFLOW_HAVE_MPI
+  if (distributed()) MPI_Allreduce(MPI_IN_PLACE, values, count, MPI_DOUBLE, MPI_MAX, comm_);
+#else
+  (void)values;
+  (void)count;
+#endif
+}
+
 double ParallelContext::min(double value) const {
 #ifdef MPMFLOW_HAVE_MPI
   if (distributed()) MPI_Allreduce(MPI_IN_PLACE, &value, 1, MPI_DOUBLE, MPI_MIN, comm_);

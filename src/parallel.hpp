@@ -39,6 +39,8 @@ class ParallelContext {
   bool gpu_aware = false;
 
   double max(double value) const;
+  // Each of `values` the largest of the ranks', in one reduction.
+  void max_in_place(double* values, int count) const;
   double min(double value) const;
   long long sum(long long value) const;
   void sum_in_place(double* values, int count) const;

@@ -412,11 +412,20 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   const long first_step = solver.step_count();
   size_t balance_reports_printed = 0;
   double first_stable_dt = 0;
+  // This rank's reason to stop, from the end of the last step (a signal, or the wall-time limit
+  // within reach): the next step's time step takes the ranks' largest in its own reduction, so that
+  // every rank stops after the same step without a collective of its own. (A run whose last step
+  // ends it, at t_end or max_steps, ends as asked.)
+  int stop_request = 0;
   while (t < end_time && (max_steps == 0 || solver.step_count() < max_steps)) {
     const double target = snapshots > 0 ? snapshot_time(next_snapshot) : end_time;
     const double t_before = t;
     try {
-      t = solver.step_towards(t, target);
+      t = solver.step_towards(t, target, stop_request);
+      if (const int reason = solver.stop_request(); reason > 0) {
+        summary.stopped_by = reason == 2 ? "SIGTERM" : reason == 3 ? "SIGINT" : "the wall-time limit";
+        break;
+      }
       last_state_written = false;
       if (snapshots > 0 && t == target) solver.check_state();
     } catch (const InvalidStateError& e) {
@@ -466,17 +475,13 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
 #endif
     const double elapsed = wall.seconds();
     // A signal, or the wall-time limit within reach (two more steps at the mean pace so far and a
-    // checkpoint): every rank stops after the same step (the decision is taken together).
+    // checkpoint): every rank stops after the same step (the decision is taken together, by the
+    // next step_towards).
     {
       const double seconds_per_step = elapsed / double(solver.step_count() - first_step);
       const bool near_limit = options.wall_time_seconds > 0 &&
                               elapsed + 2 * seconds_per_step + 2 * checkpoint_seconds + 1 > options.wall_time_seconds;
-      const int local = stop_signal == SIGTERM ? 2 : stop_signal == SIGINT ? 3 : near_limit ? 1 : 0;
-      const int reason = static_cast<int>(solver.context().max(double(local)));
-      if (reason > 0 && t < end_time) {
-        summary.stopped_by = reason == 2 ? "SIGTERM" : reason == 3 ? "SIGINT" : "the wall-time limit";
-        break;
-      }
+      stop_request = stop_signal == SIGTERM ? 2 : stop_signal == SIGINT ? 3 : near_limit ? 1 : 0;
     }
     if (elapsed - last_report >= options.progress_interval_seconds) {
       last_report = elapsed;

@@ -130,7 +130,9 @@ real_t open_side_signal_speed(const BoundaryConfig& boundaries, real_t gamma) {
 }
 }  // namespace
 
-real_t Solver::stable_time_step() {
+real_t Solver::stable_time_step() { return stable_time_step_and_stop_request(0); }
+
+real_t Solver::stable_time_step_and_stop_request(int local_request) {
   prepare_grid();
   auto t = timers_.scope(Phase::time_step);
   // The P2G checked every particle's state on its way (particles_in_doubt); a pass over them
@@ -141,7 +143,11 @@ real_t Solver::stable_time_step() {
   const real_t max_speed =
       local_invalid ? largest_real
                     : std::max(node_speed, open_side_signal_speed(config_.boundaries, config_.physics.gamma));
-  const real_t global_max_speed = static_cast<real_t>(context().max(double(max_speed)));
+  // The ranks' largest signal speed and stop request, in one reduction.
+  double largest[2] = {double(max_speed), double(local_request)};
+  context().max_in_place(largest, 2);
+  const real_t global_max_speed = static_cast<real_t>(largest[0]);
+  stop_request_ = static_cast<int>(largest[1]);
   if (!(global_max_speed < largest_real)) {
     if (context().max(local_invalid ? 1.0 : 0.0) > 0) report_invalid_particle(local_invalid);
     // Valid particles whose node sums overflow.
@@ -263,8 +269,9 @@ std::string Solver::describe_fastest_particle() const {
   return message;
 }
 
-double Solver::step_towards(double t, double target) {
-  const double dt = stable_time_step();
+double Solver::step_towards(double t, double target, int stop_request) {
+  const double dt = stable_time_step_and_stop_request(stop_request);
+  if (stop_request_ > 0) return t;
   last_stable_time_step_ = dt;
   // Round-off in t must not leave a sliver of a step before the target.
   const bool reaches_target = t + dt >= target - 1e-12 * target;

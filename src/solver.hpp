@@ -55,8 +55,14 @@ class Solver {
   void advance(real_t dt);
 
   // One stable step from time t, shortened so as not to pass `target`; returns the new time
-  // (exactly `target` when it is reached, so outputs land on their times).
-  double step_towards(double t, double target);
+  // (exactly `target` when it is reached, so outputs land on their times). `stop_request` is this
+  // rank's reason to stop the run before the step (0: none; the run loop's signals and wall-time
+  // limit): the ranks' largest is taken in the reduction that gives the step its signal speed, not
+  // in a collective of its own (one a step fewer), and where it is above 0 no step is taken, t is
+  // returned and stop_request() gives it, the same on every rank. Collective.
+  double step_towards(double t, double target, int stop_request = 0);
+  // The ranks' largest stop request, as the last step_towards took it.
+  int stop_request() const { return stop_request_; }
 
   // Rebalances the slabs now if that evens out the particle counts; returns whether it did.
   // Collective.
@@ -139,6 +145,8 @@ class Solver {
   // The state a step works on, and steps 2-3 of the next step unless the grid holds them already.
   StepState step_state();
   void prepare_grid();
+  // stable_time_step, with this rank's stop request taken in its reduction (stop_request_).
+  real_t stable_time_step_and_stop_request(int local_request);
   // Throws InvalidStateError on every rank, with the first bad particle of the lowest rank that
   // has one (collective; `local_invalid`: this rank has one).
   [[noreturn]] void report_invalid_particle(bool local_invalid) const;
@@ -158,6 +166,7 @@ class Solver {
   long long particle_steps_ = 0;
   ObstacleForces step_forces_;
   double last_stable_time_step_ = 0;
+  int stop_request_ = 0;
   // Whether the grid holds steps 2-3 (project_particles_to_grid) of the particles as they are.
   bool grid_holds_particles_ = false;
   std::vector<double> obstacle_impulse_;  // since the last take_mean_obstacle_forces

@@ -4,7 +4,7 @@
 #
 #   mpi_runs.sh TEST MPIEXEC MPMFLOW SOURCE_DIR WORK_DIR
 #
-# TEST: sod | cylinder | restart | errors. Open MPI needs --oversubscribe for more ranks than
+# TEST: sod | cylinder | restart | stop | errors. Open MPI needs --oversubscribe for more ranks than
 # cores, and refuses to run as root unless told that it is wanted (CI runs as root).
 set -euo pipefail
 test_name=$1 mpiexec=$2 mpmflow=$3 source_dir=$4 work=$5
@@ -97,6 +97,32 @@ case $test_name in
     cmp "$work/whole/diagnostics.csv" "$work/restart2/diagnostics.csv"
     # The XDMF series of the restarted run lists all five outputs.
     [ "$(grep -c '<Time ' "$work/restart2/cylinder_mach3_particles.xmf")" = 5 ] || { echo "FAILED: XDMF series"; exit 1; }
+    ;;
+  stop)
+    # SIGTERM to one rank alone: the ranks take its request together (in the reduction of the next
+    # step's time step) and all stop after the same step, with a checkpoint and exit code 3; continued
+    # on 2 ranks, the run ends bitwise where an uninterrupted run ends.
+    long=("${cylinder[@]}" --set time/end=2)
+    run 2 "$work/whole" "${long[@]}"
+    # (Within a time limit: ranks that did not stop together would wait on each other for ever.)
+    timeout 120 "$mpiexec" "${mpi_flags[@]}" -np 2 "$mpmflow" run "${long[@]}" --output "$work/stopped" \
+      --set output/checkpoint_interval=20 --set output/checkpoints_kept=0 > "$work/stopped.log" 2>&1 &
+    job=$!
+    # Once the checkpoint of step 20 is there (a file the ranks write, not output that mpirun
+    # forwards late), one rank is told to stop (timeout's child is mpirun, whose children are the ranks).
+    for _ in $(seq 600); do [ -f "$work/stopped/cylinder_mach3_checkpoint_000000020.h5" ] && break; sleep 0.05; done
+    launcher=$(pgrep -P $job | head -1)
+    rank=$(pgrep -P "${launcher:-0}" | tail -1)
+    [ -n "$rank" ] || { echo "FAILED: no rank process under mpirun $job"; exit 1; }
+    kill -TERM "$rank"
+    status=0
+    wait $job || status=$?
+    grep "stopped by" "$work/stopped.log" || true
+    [ $status -eq 3 ] || { tail -3 "$work/stopped.log"; echo "FAILED: exit code $status, expected 3"; exit 1; }
+    [ "$(grep -c 'stopped by SIGTERM' "$work/stopped.log")" = 1 ] || { echo "FAILED: not one stop message"; exit 1; }
+    checkpoint=$(ls "$work/stopped"/*_checkpoint_*.h5 | sort | tail -1)
+    run 2 "$work/stopped" "${long[@]}" --restart "$checkpoint"
+    $compare "$work/whole" "$work/stopped" --step 4 --exact | tail -1
     ;;
   errors)
     # A bad case file: one message (from rank 0), exit code 2 from the job.
