@@ -1,9 +1,10 @@
 #pragma once
 // A ScatterView over a one-dimensional View of sums, kept from call to call by whoever adds into
-// those sums every step (as KeptBuffer, kernels/types.hpp, keeps a View). A duplicated ScatterView (the CPU default) allocates a copy of its target
-// per thread when it is made: made in each call, the volume gradients' two were two allocations a
-// step, against the rule that a step allocates nothing once its buffers have grown (on a GPU an
-// allocation and its free cost more than a small kernel, and a free may wait for the device).
+// those sums every step (as KeptBuffer, kernels/types.hpp, keeps a View). A duplicated ScatterView
+// (the CPU default) allocates a copy of its target per thread when it is made: made in each call,
+// the volume gradients' two were two allocations a step, against the rule that a step allocates
+// nothing once its buffers have grown (on a GPU an allocation and its free cost more than a small
+// kernel, and a free may wait for the device).
 #include <Kokkos_ScatterView.hpp>
 
 #include <utility>

@@ -43,12 +43,13 @@
 #include <vector>
 
 #include "boundary_conditions.hpp"
-#include "kernels/kept_scatter_view.hpp"
 #include "case_config.hpp"
 #include "counter_random.hpp"
 #include "diagnostics.hpp"
 #include "particles.hpp"
 #include "slab_state.hpp"
+
+#include "kernels/kept_scatter_view.hpp"
 
 namespace mpmflow {
 
