@@ -797,7 +797,7 @@ TEST(OpenSides, ASecondExchangeOfAsManyParticlesAllocatesNothing) {
   for (int round = 0; round < 2; ++round) {
     ParticleState pt = create_initial_particles(config, slab);  // the same particles each round
     pt.reserve(2 * pt.count);  // room for those entering: the particle Views do not grow
-    // A particle in each column of the right side's cells leaves through it.
+    // Every tenth particle leaves through the right side (and the free stream enters on the left).
     auto x = host_copy(pt.position_x);
     for (index_t k = 0; k < pt.count; k += 10) x(k) = real_t(4.01);
     Kokkos::deep_copy(pt.position_x, x);
@@ -1171,8 +1171,8 @@ TEST(GridConditions, TheCellsMarkedForTheVolumeGradientsHoldEveryParticleThatAdd
 // Step 4 adds into the volume gradients every step through ScatterViews the transfers keep
 // (KeptScatterView): a second addition allocates nothing (made for each call, a duplicated
 // ScatterView's copies were two allocations a step on CPUs), and its sums are the first's: the
-// kept copies start from zero each time. Another View of sums (the second slab's, as after a
-// rebalance) takes a ScatterView of its own: the same sums there too.
+// kept copies start from zero each time. Other Views of sums (as a slab rebuilt by a rebalance
+// holds) take a ScatterView of their own: the same sums there too.
 TEST(GridConditions, ASecondAdditionOfTheVolumeGradientsAllocatesNothingAndSumsTheSame) {
   const CaseConfig config =
       tunnel_config(R"(, "boundaries": {"left": {"type": "inflow"}, "right": {"type": "outflow"},
