@@ -215,6 +215,19 @@ class StopSignals {
   void (*previous_term_)(int) = SIG_DFL;
   void (*previous_int_)(int) = SIG_DFL;
 };
+
+// Why a rank asks the run to stop early, as Solver::step_towards takes it: the ranks' largest
+// request wins (a signal over the wall-time limit).
+enum StopReason : int { no_stop = 0, wall_time_limit = 1, terminated = 2, interrupted = 3 };
+StopReason stop_reason(bool near_wall_time_limit) {
+  return stop_signal == SIGTERM ? terminated
+         : stop_signal == SIGINT ? interrupted
+         : near_wall_time_limit  ? wall_time_limit
+                                 : no_stop;
+}
+const char* stop_reason_name(int reason) {
+  return reason == terminated ? "SIGTERM" : reason == interrupted ? "SIGINT" : "the wall-time limit";
+}
 }  // namespace
 
 RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, std::ostream& root_log) {
@@ -416,14 +429,14 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
   // within reach): the next step's time step takes the ranks' largest in its own reduction, so that
   // every rank stops after the same step without a collective of its own. (A run whose last step
   // ends it, at t_end or max_steps, ends as asked.)
-  int stop_request = 0;
+  StopReason stop_request = no_stop;
   while (t < end_time && (max_steps == 0 || solver.step_count() < max_steps)) {
     const double target = snapshots > 0 ? snapshot_time(next_snapshot) : end_time;
     const double t_before = t;
     try {
       t = solver.step_towards(t, target, stop_request);
-      if (const int reason = solver.stop_request(); reason > 0) {
-        summary.stopped_by = reason == 2 ? "SIGTERM" : reason == 3 ? "SIGINT" : "the wall-time limit";
+      if (solver.stop_request() != no_stop) {
+        summary.stopped_by = stop_reason_name(solver.stop_request());
         break;
       }
       last_state_written = false;
@@ -481,7 +494,7 @@ RunSummary run_simulation(const CaseConfig& config, const RunOptions& options, s
       const double seconds_per_step = elapsed / double(solver.step_count() - first_step);
       const bool near_limit = options.wall_time_seconds > 0 &&
                               elapsed + 2 * seconds_per_step + 2 * checkpoint_seconds + 1 > options.wall_time_seconds;
-      stop_request = stop_signal == SIGTERM ? 2 : stop_signal == SIGINT ? 3 : near_limit ? 1 : 0;
+      stop_request = stop_reason(near_limit);
     }
     if (elapsed - last_report >= options.progress_interval_seconds) {
       last_report = elapsed;
