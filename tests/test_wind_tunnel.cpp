@@ -1551,7 +1551,7 @@ TEST(ParticleSplitting, AParticleStretchedAlikeAlongBothAxesSplitsInFourQuarters
     EXPECT_DOUBLE_EQ(after_sx(k), 0.5);
     EXPECT_DOUBLE_EQ(after_sy(k), 0.5);
   }
-  const real_t half_x[2] = {x2 - 1.5 * q, x2 + 1.5 * q};
+  const real_t half_x[2] = {real_t(x2 - 1.5 * q), real_t(x2 + 1.5 * q)};
   for (int j = 0; j < 2; ++j) {
     ASSERT_EQ(index_of.count(first_of_two - j), 1u) << first_of_two - j;
     const index_t k = index_of.at(first_of_two - j);
@@ -1869,7 +1869,7 @@ TEST(Obstacles, GasAtRestRoundABodyStaysAtRest) {
       while (t < end) t = solver.step_towards(t, end);
       const HostParticles h = to_host(solver);
       for (size_t p = 0; p < h.x.size(); ++p) {
-        fastest = std::max(fastest, std::hypot(h.vx[p], h.vy[p]));
+        fastest = std::max(fastest, double(std::hypot(h.vx[p], h.vy[p])));
         lowest = std::min(lowest, double(h.p[p]));
         highest = std::max(highest, double(h.p[p]));
       }
