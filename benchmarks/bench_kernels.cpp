@@ -81,6 +81,7 @@
 #include <vector>
 
 #include "allocation_tracker.hpp"
+#include "build_commit.hpp"
 #include "case_config.hpp"
 #include "host_memory.hpp"
 #include "kernels/particle_sort.hpp"
@@ -672,7 +673,16 @@ int main(int argc, char** argv) {
   mpmflow::allocations();  // counting from here
   mpmflow::register_benchmarks(shape_list, cell_counts, matrix_only, extras, steps, case_overrides,
                                relaxes);
-  // The context lines above the rows name the precision: the traffic model's bytes follow it.
+  // The context lines above the rows name the build that made the figures (its commit, "-dirty"
+  // with uncommitted changes), its options, the compiler and the Kokkos: the same case runs at
+  // another pace with another of any of them. (Google Benchmark's own warning that the "Library
+  // was built as DEBUG" is about the Google Benchmark library, Debian's build of it: its
+  // bookkeeping, not these rows' steps.)
+  benchmark::AddCustomContext("mpmflow_build", mpmflow::build_identity());
+  benchmark::AddCustomContext("mpmflow_build_options", MPMFLOW_BUILD_OPTIONS);
+  benchmark::AddCustomContext("host_compiler", mpmflow::host_compiler());
+  benchmark::AddCustomContext("kokkos_version", mpmflow::kokkos_version());
+  // And the precision: the traffic model's bytes follow it.
   benchmark::AddCustomContext("real_t", sizeof(mpmflow::real_t) == sizeof(double) ? "double" : "float");
   // And the back-end and how many threads it runs at once (benchmarks/scaling_study.py's title).
   benchmark::AddCustomContext("execution_space", mpmflow::ExecutionSpace::name());

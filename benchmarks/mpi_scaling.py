@@ -8,7 +8,8 @@ Strong scaling: one case (default: the Mach 3 cylinder at 160 x 80 cells, 9 part
 ranks), so every rank keeps the same share. Every run is a fixed number of steps from t = 0, one
 OpenMP thread per rank, no output. Prints particle-steps per second and parallel efficiency
 (rate on p ranks / (p x rate on 1 rank)) per rank count, and writes DIR/scaling.csv and
-DIR/scaling.png. Run it with Debian's python3 (/usr/bin/python3), which has matplotlib.
+DIR/scaling.png, both naming the build that ran (the first words of mpmflow's banner, "mpmflow
+<version> (<commit>)"). Run it with Debian's python3 (/usr/bin/python3), which has matplotlib.
 With --repeat N every run is made N times, in N rounds of all the runs one after the other (so
 that a machine whose pace drifts slows every rank count alike, not the last ones), and each rank
 count's figure is the median of its N runs, with their least and greatest beside it in the CSV and
@@ -41,9 +42,11 @@ def run(args, ranks, cells_x, cells_y):
         sys.exit(f"mpi_scaling: failed: {' '.join(command)}\n{result.stdout}\n{result.stderr}")
     done = re.search(r"done: (\d+) steps .* in ([\d.]+)s?.*?, ([\d.e+-]+) particle-steps/s", result.stdout)
     particles = re.search(r"cells, (\d+) particles", result.stdout)
-    if not done or not particles:
+    # The banner's first words: the build that ran ("mpmflow 0.1.0 (<commit>)", simulation.cpp).
+    build = re.search(r"^(mpmflow \S+ \([^)]*\))", result.stdout, re.MULTILINE)
+    if not done or not particles or not build:
         sys.exit(f"mpi_scaling: cannot read the summary of: {' '.join(command)}\n{result.stdout}")
-    return int(particles.group(1)), int(done.group(1)), float(done.group(3))
+    return int(particles.group(1)), int(done.group(1)), float(done.group(3)), build.group(1)
 
 
 def positive_ints(count=None):
@@ -102,11 +105,12 @@ def main():
 
     # Round by round: each round runs every kind and rank count once.
     runs = {}  # (kind, ranks) -> [(particles, steps, rate), ...]
+    build = None  # the banner's build, the same in every run
     for round_number in range(1, args.repeat + 1):
         for kind in ("strong", "weak"):
             for p in ranks:
                 cells_x, cells_y = grid(kind, p)
-                particles, steps, rate = run(args, p, cells_x, cells_y)
+                particles, steps, rate, build = run(args, p, cells_x, cells_y)
                 runs.setdefault((kind, p), []).append((particles, steps, rate))
                 print(f"round {round_number}/{args.repeat}  {kind:6s} ranks {p:3d}  {cells_x} x {cells_y} cells  "
                       f"{particles} particles  {rate:.3e} particle-steps/s", flush=True)
@@ -123,7 +127,8 @@ def main():
             rows.append(dict(kind=kind, ranks=p, cells_x=cells_x, cells_y=cells_y, particles=particles, steps=steps,
                              runs=len(rates[p]), particle_steps_per_second=f"{median:.4e}",
                              particle_steps_per_second_min=f"{min(rates[p]):.4e}",
-                             particle_steps_per_second_max=f"{max(rates[p]):.4e}", efficiency=f"{efficiency:.3f}"))
+                             particle_steps_per_second_max=f"{max(rates[p]):.4e}", efficiency=f"{efficiency:.3f}",
+                             build=build))
             spread = f" (runs {min(rates[p]):.3e} to {max(rates[p]):.3e})" if len(rates[p]) > 1 else ""
             print(f"{kind:6s} ranks {p:3d}  {cells_x} x {cells_y} cells  {particles} particles  "
                   f"{median:.3e} particle-steps/s{spread}  efficiency {efficiency:.2f}", flush=True)
@@ -160,7 +165,7 @@ def main():
         ax.grid(True, which="both", alpha=0.3)
         ax.legend()
     repeats = f"; median of {args.repeat} runs, bars from the least to the greatest" if args.repeat > 1 else ""
-    fig.suptitle(f"mpmflow MPI scaling ({args.threads} thread(s) per rank, {os.cpu_count()} cores{repeats})")
+    fig.suptitle(f"mpmflow MPI scaling ({args.threads} thread(s) per rank, {os.cpu_count()} cores{repeats})\n{build}")
     fig.tight_layout()
     png_path = os.path.join(args.out, "scaling.png")
     fig.savefig(png_path + ".tmp.png", dpi=110)

@@ -188,18 +188,27 @@ def machine_description():
 def run_description(json_path, machine):
     """What ran the rows, for the title: `machine` where given (--machine, e.g. for a replot on
     another machine); else the back-end the benchmark recorded in its context (runs before
-    2026-12-04 recorded none: OpenMP) with its threads, on this machine's CPU for a host back-end."""
-    if machine:
-        return machine
+    2026-12-04 recorded none: OpenMP) with its threads, on this machine's CPU for a host back-end.
+    Then, on a line of its own, the build the benchmark recorded (runs before 2026-12-07 recorded
+    none): its commit and options."""
     with open(json_path) as f:
         context = json.load(f).get("context", {})
-    space = context.get("execution_space", "OpenMP")
-    threads = context.get("concurrency", os.environ.get("OMP_NUM_THREADS", "all"))
-    if space in ("OpenMP", "Threads"):
-        return "%s (%s threads) on %s" % (space, threads, machine_description())
-    if space == "Serial":
-        return "Serial on " + machine_description()
-    return space  # a GPU: the benchmark does not name the device
+    if machine:
+        where = machine
+    else:
+        space = context.get("execution_space", "OpenMP")
+        threads = context.get("concurrency", os.environ.get("OMP_NUM_THREADS", "all"))
+        if space in ("OpenMP", "Threads"):
+            where = "%s (%s threads) on %s" % (space, threads, machine_description())
+        elif space == "Serial":
+            where = "Serial on " + machine_description()
+        else:
+            where = space  # a GPU: the benchmark does not name the device
+    if "mpmflow_build" not in context:
+        return where
+    build = ", ".join(context[key] for key in ("mpmflow_build", "mpmflow_build_options", "host_compiler")
+                      if key in context)
+    return where + "\n" + build
 
 
 def main():

@@ -87,11 +87,9 @@ namespace {
 // The version and build; with the execution space's concurrency, which needs Kokkos initialised.
 std::string describe_build(bool with_concurrency) {
   std::ostringstream out;
-  const int kv = KOKKOS_VERSION;
   out << build_identity() << ", "
       << (sizeof(real_t) == 8 ? "double" : "single") << " precision\n"
-      << "Kokkos " << kv / 10000 << "." << (kv / 100) % 100 << "." << kv % 100 << ", execution space "
-      << ExecutionSpace::name();
+      << "Kokkos " << kokkos_version() << ", execution space " << ExecutionSpace::name();
   if (with_concurrency) out << ", concurrency " << ExecutionSpace().concurrency();
   if (gpu_code_paths_on_host) out << ", the GPU build's code paths (MPMFLOW_GPU_CODE_PATHS_ON_HOST)";
   out << "\n";

@@ -1,13 +1,14 @@
 #!/usr/bin/python3
-"""ctest: the benchmark program (benchmarks/bench_kernels.cpp) runs the rows of its kernel matrix at
-a small size and reports, for each, the counters the README's Benchmarks section names, finite and
-consistent with each other; the same rows with a case-file setting of the user's (--set), which
-the report's context names and which leaves out the row of a phase it turns off, each step row's
-allocations at its peak by label (--memory-breakdown) summing to that peak, and its kernel
-launches a step by label (--launch-breakdown) summing to its launch counters; the step rows with
-the phase timers unfenced (--set output/phase_timers=unfenced) fencing nothing; and its own options,
-given wrong, get an error naming the option and what it expects. It times nothing: the
-figures' values are not checked, only that each row ran and that its counters agree.
+"""ctest: the benchmark program (benchmarks/bench_kernels.cpp) runs the rows of its kernel matrix at a
+small size and reports, for each, the counters the README's Benchmarks section names, finite and
+consistent with each other, under context lines that name the build; the same rows with a case-file
+setting of the user's (--set), which the report's context names and which leaves out the row of a
+phase it turns off, each step row's allocations at its peak by label (--memory-breakdown) summing to
+that peak, and its kernel launches a step by label (--launch-breakdown) summing to its launch
+counters; the step rows with the phase timers unfenced (--set output/phase_timers=unfenced) fencing
+nothing; and its own options, given wrong, get an error naming the option and what it expects. It
+times nothing: the figures' values are not checked, only that each row ran and that its counters
+agree.
 
 Usage: benchmark_counters.py MPMFLOW_BENCHMARKS WORK_DIR
 """
@@ -105,6 +106,12 @@ def check_rows(benchmarks, work_dir, options, label, case_overrides):
         report = json.load(f)
     if report["context"].get("real_t") not in ("double", "float"):
         fail(f"the context's real_t is {report['context'].get('real_t')!r}, expected double or float")
+    # The build that made the figures, as bench_kernels.cpp names it (the values are the build's own).
+    for key, pattern in (("mpmflow_build", r"mpmflow \S+ \(.+\)"), ("mpmflow_build_options", r"\S.*"),
+                         ("host_compiler", r"\S.*"), ("kokkos_version", r"\d+\.\d+\.\d+")):
+        value = report["context"].get(key)
+        if not isinstance(value, str) or not re.fullmatch(pattern, value):
+            fail(f"the context's {key} is {value!r}, expected text matching {pattern}")
     if report["context"].get("case_overrides") != case_overrides:
         fail(f"the context's case_overrides is {report['context'].get('case_overrides')!r}, "
              f"expected {case_overrides!r}")
