@@ -698,7 +698,9 @@ std::set<std::string> case_file_keys() {
 
 namespace {
 json gas_state_json(const GasState& s) {
-  return {{"density", s.density}, {"pressure", s.pressure}, {"velocity", {s.velocity_x, s.velocity_y}}};
+  return {{"density", as_written(s.density)},
+          {"pressure", as_written(s.pressure)},
+          {"velocity", {as_written(s.velocity_x), as_written(s.velocity_y)}}};
 }
 }  // namespace
 
@@ -733,12 +735,13 @@ std::string effective_case_json(const CaseConfig& c) {
   json e;
   e["name"] = c.name;
   e["description"] = c.description;
-  e["domain"] = {{"x", {c.domain.x_min, c.domain.x_max}},
-                 {"y", {c.domain.y_min, c.domain.y_max}},
+  e["domain"] = {{"x", {as_written(c.domain.x_min), as_written(c.domain.x_max)}},
+                 {"y", {as_written(c.domain.y_min), as_written(c.domain.y_max)}},
                  {"cells_x", c.domain.cells_x},
                  {"cells_y", c.domain.cells_y}};
-  e["physics"] = {{"gamma", c.physics.gamma},
-                  {"artificial_viscosity", {{"c0", c.physics.viscosity_quadratic}, {"c1", c.physics.viscosity_linear}}}};
+  e["physics"] = {{"gamma", as_written(c.physics.gamma)},
+                  {"artificial_viscosity",
+                   {{"c0", as_written(c.physics.viscosity_quadratic)}, {"c1", as_written(c.physics.viscosity_linear)}}}};
   e["time"] = {{"end", c.time.end_time}, {"cfl", c.time.cfl}, {"max_steps", c.time.max_steps}};
   e["boundaries"] = {{"left", {{"type", to_string(c.boundaries.left)}}},
                      {"right", {{"type", to_string(c.boundaries.right)}}},

@@ -3,10 +3,13 @@
 // out-of-range values with a ConfigError naming the file, the JSON path and what was expected.
 #include <algorithm>
 #include <array>
+#include <charconv>
+#include <cstdlib>
 #include <stdexcept>
 #include <map>
 #include <set>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -248,6 +251,22 @@ std::set<std::string> case_file_keys();
 // leaves out set to the default it took, in canonical order (2-space indented JSON). Parsing the
 // result gives the same case. Obstacles and initial regions are as the document gives them.
 std::string effective_case_json(const CaseConfig& config);
+
+// A configured number as a case file writes it: the shortest decimal that reads back as `value`
+// in its own type, so that a single-precision build's effective case (and a restart's refusal
+// quoting it) says 1.4 where the case said 1.4, not 1.399999976158142, float's nearest value to
+// 1.4 widened to double. The value itself for double.
+template <class Real>
+double as_written(Real value) {
+  if constexpr (std::is_same<Real, double>::value) {
+    return value;
+  } else {
+    char text[64];
+    const std::to_chars_result written = std::to_chars(text, text + sizeof(text) - 1, value);
+    *written.ptr = '\0';
+    return std::strtod(text, nullptr);
+  }
+}
 
 // The keys a restart may change: the end time, the output schedule and folder, the step limit,
 // how phases are timed, the description. (Everything else of a checkpoint's case must stay as it was.)

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -45,7 +46,7 @@ TEST(CaseConfig, MinimalCaseGetsDocumentedDefaults) {
   EXPECT_EQ(c.name, "t");
   EXPECT_DOUBLE_EQ(c.domain.x_max, 2.0);
   EXPECT_EQ(c.domain.cells_x, 20);
-  EXPECT_DOUBLE_EQ(c.physics.gamma, 1.4);
+  EXPECT_EQ(c.physics.gamma, real_t(1.4));  // (in float, 1.4 rounded once)
   EXPECT_DOUBLE_EQ(c.physics.viscosity_quadratic, 1.0);
   EXPECT_DOUBLE_EQ(c.physics.viscosity_linear, 1.0);
   EXPECT_DOUBLE_EQ(c.time.cfl, 0.5);
@@ -228,6 +229,28 @@ TEST(EffectiveCase, RoundTripsForEveryShippedCase) {
     ++cases;
   }
   EXPECT_GE(cases, 15);
+}
+
+// A configured number is written as the case wrote it in either precision: a float's shortest
+// decimal, not its value widened to double (the effective case of a single-precision build said
+// gamma 1.399999976158142 for 1.4, and so did a restart's refusal quoting it).
+TEST(EffectiveCase, NumbersAreWrittenAsTheCaseWroteThemInEitherPrecision) {
+  EXPECT_EQ(as_written(1.4f), 1.4);
+  EXPECT_EQ(as_written(0.1f), 0.1);
+  EXPECT_EQ(as_written(-2.5e-7f), -2.5e-7);
+  EXPECT_EQ(as_written(3.0e38f), 3.0e38);
+  EXPECT_EQ(as_written(0.0f), 0.0);
+  // Any float reads back as itself.
+  for (const float f : {std::nextafter(1.4f, 2.0f), 1.0f / 3.0f, 16777217.0f, 1e-30f})
+    EXPECT_EQ(static_cast<float>(as_written(f)), f) << f;
+  // Doubles are written as they are.
+  EXPECT_EQ(as_written(1.3999999761581421), 1.3999999761581421);
+  EXPECT_EQ(as_written(0.1), 0.1);
+  // This build's effective case, whatever its real_t: the minimal case's numbers as written.
+  const nlohmann::json effective = nlohmann::json::parse(effective_case_json(parse_case(kMinimalCase, "case.json")));
+  EXPECT_EQ(effective["physics"]["gamma"].get<double>(), 1.4);
+  EXPECT_EQ(effective["domain"]["x"][1].get<double>(), 2.0);
+  EXPECT_EQ(effective["initial_state"]["background"]["velocity"][0].get<double>(), 3.0);
 }
 
 }  // namespace mpmflow
