@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <array>
 #include <charconv>
-#include <cstdlib>
 #include <stdexcept>
 #include <map>
 #include <set>
@@ -261,10 +260,12 @@ double as_written(Real value) {
   if constexpr (std::is_same<Real, double>::value) {
     return value;
   } else {
+    // (to_chars and from_chars, not printf and strtod: they ignore the locale's decimal point.)
     char text[64];
-    const std::to_chars_result written = std::to_chars(text, text + sizeof(text) - 1, value);
-    *written.ptr = '\0';
-    return std::strtod(text, nullptr);
+    const std::to_chars_result written = std::to_chars(text, text + sizeof(text), value);
+    double read = 0;
+    std::from_chars(text, written.ptr, read);
+    return read;
   }
 }
 
