@@ -60,7 +60,19 @@ class ObjectReader {
     if (!v.is_number()) fail(at(key), bounds.phrase, v);
     const double d = v.get<double>();
     if (!bounds.contains(d)) fail(at(key), bounds.phrase, v);
+    check_fits_real(at(key), bounds.phrase, v);
     return d;
+  }
+  // Every number of `v` (a number or an array of them) fits the build's reals (fits_in), else the
+  // error names `where` and what was expected, with the largest real.
+  void check_fits_real(const std::string& where, const std::string& expected, const json& v) const {
+    const auto fits = [](const json& x) { return !x.is_number() || fits_in<real_t>(x.get<double>()); };
+    if (v.is_array() ? std::all_of(v.begin(), v.end(), fits) : fits(v)) return;
+    std::ostringstream largest;
+    largest << std::numeric_limits<real_t>::max();
+    fail(where, expected + ", at most " + largest.str() + " in size (this mpmflow computes in " +
+                    (sizeof(real_t) == sizeof(double) ? "double" : "single") + " precision)",
+         v);
   }
   // Reads `key` into `target` when present; otherwise `target` keeps its value: the default of
   // the config struct's initialiser, the one place defaults are written.
@@ -189,6 +201,7 @@ GasState read_gas_state(ObjectReader& r) {
     const json& v = r.array("velocity");
     if (v.size() != 2 || !v[0].is_number() || !v[1].is_number())
       r.fail(r.at("velocity"), "an array of two numbers [vx, vy]", v);
+    r.check_fits_real(r.at("velocity"), "an array of two numbers [vx, vy]", v);
     s.velocity_x = v[0].get<double>();
     s.velocity_y = v[1].get<double>();
   }  // no velocity: at rest
@@ -200,6 +213,7 @@ std::pair<double, double> read_range(ObjectReader& r, const std::string& key) {
   const json& v = r.array(key);
   if (v.size() != 2 || !v[0].is_number() || !v[1].is_number() || !(v[0].get<double>() < v[1].get<double>()))
     r.fail(r.at(key), "an array [lo, hi] of two numbers with lo < hi", v);
+  r.check_fits_real(r.at(key), "an array [lo, hi] of two numbers with lo < hi", v);
   return {v[0].get<double>(), v[1].get<double>()};
 }
 
@@ -207,6 +221,7 @@ std::pair<double, double> read_range(ObjectReader& r, const std::string& key) {
 std::pair<double, double> read_pair(ObjectReader& r, const std::string& key, const std::string& phrase) {
   const json& v = r.array(key);
   if (v.size() != 2 || !v[0].is_number() || !v[1].is_number()) r.fail(r.at(key), phrase, v);
+  r.check_fits_real(r.at(key), phrase, v);
   return {v[0].get<double>(), v[1].get<double>()};
 }
 

@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <array>
 #include <charconv>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <map>
 #include <set>
@@ -250,6 +252,15 @@ std::set<std::string> case_file_keys();
 // leaves out set to the default it took, in canonical order (2-space indented JSON). Parsing the
 // result gives the same case. Obstacles and initial regions are as the document gives them.
 std::string effective_case_json(const CaseConfig& config);
+
+// Whether a case file's number fits the build's reals without becoming infinite: in a
+// single-precision build a float holds at most 3.4e38, and a pressure of 1e300 was read as
+// infinity, the run stopping only after its first step at a particle with an infinite pressure.
+// (Any JSON number fits a double.) The case loader refuses the number, naming its key.
+template <class Real>
+bool fits_in(double value) {
+  return std::fabs(value) <= static_cast<double>(std::numeric_limits<Real>::max());
+}
 
 // A configured number as a case file writes it: the shortest decimal that reads back as `value`
 // in its own type, so that a single-precision build's effective case (and a restart's refusal

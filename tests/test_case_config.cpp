@@ -123,6 +123,29 @@ TEST(CaseConfig, OutOfRangeValueIsRejected) {
   EXPECT_NE(e.find("/domain/x: expected an array [lo, hi] of two numbers with lo < hi"), std::string::npos) << e;
 }
 
+// A number beyond the build's reals is refused at the case file, naming its key: in single
+// precision a pressure of 1e300 had become infinity, and the run stopped only after its first step.
+TEST(CaseConfig, ANumberBeyondTheBuildsRealsIsRejected) {
+  EXPECT_TRUE(fits_in<float>(3.0e38));
+  EXPECT_TRUE(fits_in<float>(-3.0e38));
+  EXPECT_FALSE(fits_in<float>(1e300));
+  EXPECT_FALSE(fits_in<float>(-4.0e38));
+  EXPECT_TRUE(fits_in<double>(1e300));
+  // This build's reals, whichever they are: a scalar and an element of an array.
+  const std::string pressure = error_of(minimal_with(R"("pressure": 1)", R"("pressure": 1e300)"));
+  const std::string velocity = error_of(minimal_with(R"("velocity": [3, 0])", R"("velocity": [3, -1e300])"));
+  if (fits_in<real_t>(1e300)) {
+    EXPECT_EQ(pressure, "");
+    EXPECT_EQ(velocity, "");
+  } else {
+    EXPECT_NE(pressure.find("case.json: /initial_state/background/pressure: expected a number > 0, at most "),
+              std::string::npos) << pressure;
+    EXPECT_NE(pressure.find("single precision); got 1e+300"), std::string::npos) << pressure;
+    EXPECT_NE(velocity.find("/initial_state/background/velocity: expected an array of two numbers"),
+              std::string::npos) << velocity;
+  }
+}
+
 TEST(CaseConfig, BadEnumNamesTheChoices) {
   const std::string e = error_of(minimal_with(R"("time")", R"("boundaries": { "left": { "type": "inlet" } }, "time")"));
   EXPECT_NE(e.find("case.json: /boundaries/left/type: expected one of slip_wall, inflow, outflow, far_field; got \"inlet\""), std::string::npos) << e;
