@@ -70,7 +70,7 @@ class ObjectReader {
     if (v.is_array() ? std::all_of(v.begin(), v.end(), fits) : fits(v)) return;
     std::ostringstream largest;
     largest << std::numeric_limits<real_t>::max();
-    fail(where, expected + ", at most " + largest.str() + " in size (this mpmflow computes in " +
+    fail(where, expected + ", at most " + largest.str() + " in magnitude (this mpmflow computes in " +
                     (sizeof(real_t) == sizeof(double) ? "double" : "single") + " precision)",
          v);
   }
