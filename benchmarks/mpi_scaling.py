@@ -8,8 +8,8 @@ Strong scaling: one case (default: the Mach 3 cylinder at 160 x 80 cells, 9 part
 ranks), so every rank keeps the same share. Every run is a fixed number of steps from t = 0, one
 OpenMP thread per rank, no output. Prints particle-steps per second and parallel efficiency
 (rate on p ranks / (p x rate on 1 rank)) per rank count, and writes DIR/scaling.csv and
-DIR/scaling.png, both naming the build that ran (the first words of mpmflow's banner, "mpmflow
-<version> (<commit>)"). Run it with Debian's python3 (/usr/bin/python3), which has matplotlib.
+DIR/scaling.png, both naming the build that ran (the first words of `mpmflow --version`,
+"mpmflow <version> (<commit>)"). Run it with Debian's python3 (/usr/bin/python3), which has matplotlib.
 With --repeat N every run is made N times, in N rounds of all the runs one after the other (so
 that a machine whose pace drifts slows every rank count alike, not the last ones), and each rank
 count's figure is the median of its N runs, with their least and greatest beside it in the CSV and
@@ -42,11 +42,17 @@ def run(args, ranks, cells_x, cells_y):
         sys.exit(f"mpi_scaling: failed: {' '.join(command)}\n{result.stdout}\n{result.stderr}")
     done = re.search(r"done: (\d+) steps .* in ([\d.]+)s?.*?, ([\d.e+-]+) particle-steps/s", result.stdout)
     particles = re.search(r"cells, (\d+) particles", result.stdout)
-    # The banner's first words: the build that ran ("mpmflow 0.1.0 (<commit>)", simulation.cpp).
-    build = re.search(r"^(mpmflow \S+ \([^)]*\))", result.stdout, re.MULTILINE)
-    if not done or not particles or not build:
+    if not done or not particles:
         sys.exit(f"mpi_scaling: cannot read the summary of: {' '.join(command)}\n{result.stdout}")
-    return int(particles.group(1)), int(done.group(1)), float(done.group(3)), build.group(1)
+    return int(particles.group(1)), int(done.group(1)), float(done.group(3))
+
+
+def build_of(mpmflow):
+    """The build that runs: the first words of `mpmflow --version`, "mpmflow 0.1.0 (<commit>)"."""
+    result = subprocess.run([mpmflow, "--version"], capture_output=True, text=True)
+    if result.returncode != 0 or not result.stdout.startswith("mpmflow "):
+        sys.exit(f"mpi_scaling: cannot read the build of {mpmflow} --version:\n{result.stdout}{result.stderr}")
+    return result.stdout.split(",")[0]
 
 
 def positive_ints(count=None):
@@ -105,12 +111,12 @@ def main():
 
     # Round by round: each round runs every kind and rank count once.
     runs = {}  # (kind, ranks) -> [(particles, steps, rate), ...]
-    build = None  # the banner's build, the same in every run
+    build = build_of(args.mpmflow)
     for round_number in range(1, args.repeat + 1):
         for kind in ("strong", "weak"):
             for p in ranks:
                 cells_x, cells_y = grid(kind, p)
-                particles, steps, rate, build = run(args, p, cells_x, cells_y)
+                particles, steps, rate = run(args, p, cells_x, cells_y)
                 runs.setdefault((kind, p), []).append((particles, steps, rate))
                 print(f"round {round_number}/{args.repeat}  {kind:6s} ranks {p:3d}  {cells_x} x {cells_y} cells  "
                       f"{particles} particles  {rate:.3e} particle-steps/s", flush=True)

@@ -90,7 +90,7 @@ def check_mpi_scaling(mpmflow, source_dir, work_dir, mpiexec):
                 fail(f"mpi_scaling.py: CSV rows {found}, expected strong and weak on 1 and 2 ranks")
             elif any(float(r["efficiency"]) != 1 for r in rows if r["ranks"] == "1"):
                 fail("mpi_scaling.py: efficiency on one rank is not 1")
-            # The build that ran, from mpmflow's banner: the binary's own.
+            # The build that ran, as the binary's own --version names it.
             version = subprocess.run([mpmflow, "--version"], capture_output=True, text=True).stdout.split(",")[0]
             if any(r.get("build") != version for r in rows):
                 fail(f"mpi_scaling.py: CSV builds {sorted({r.get('build') for r in rows})}, expected {version!r}")
