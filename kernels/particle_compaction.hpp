@@ -34,7 +34,7 @@ IndexView select_indices_by_scan(const char* label, index_t first, index_t last,
         },
         count);
     if (count <= capacity) break;
-    buffer = IndexView(std::string(label), static_cast<size_t>(count + count / 4));
+    buffer = IndexView(std::string(label), grown_capacity(static_cast<size_t>(count), selected.extent(0)));
   }
   return Kokkos::subview(buffer, std::make_pair(index_t(0), count));
 }
@@ -72,7 +72,8 @@ IndexView select_indices_in_parts(const char* label, index_t first, index_t last
     index_t largest = 0;
     for (index_t k = 0; k < parts; ++k) largest = part_count[k] > largest ? part_count[k] : largest;
     if (largest <= part_size) break;
-    buffer = IndexView(std::string(label), static_cast<size_t>(parts * (largest + largest / 4)));
+    // (Each part at least a quarter above the largest: grown_capacity of all the parts' largest.)
+    buffer = IndexView(std::string(label), grown_capacity(static_cast<size_t>(parts * largest), selected.extent(0)));
   }
   // Part k to the end of parts 0 .. k - 1: to the left (or where it is), in order, so that no part
   // is overwritten before it moves.

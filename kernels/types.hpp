@@ -79,21 +79,36 @@ inline IndexView to_device_indices(const char* label, const std::vector<index_t>
   return device;
 }
 
+// The capacity a list kept from call to call (KeptBuffer, the selections' buffers in
+// kernels/particle_compaction.hpp) is made again with where it must hold `needed` entries and has
+// room for `have`: a quarter to spare, at least twice what it had, and at least kept_list_minimum
+// entries. (Grown by a quarter alone, the lists of splitting and merging, whose counts rise a
+// little every step as a wake forms, were made again 107 times in the Mach 3 cylinder's first 300
+// steps: on a GPU each an allocation and a free that may wait for the device. Doubling makes the
+// growths logarithmic in the counts' range, and the floor skips the small sizes: 4 or 8 KiB a list.)
+inline constexpr size_t kept_list_minimum = 1024;
+inline size_t grown_capacity(size_t needed, size_t have) {
+  const size_t with_spare = needed + needed / 4, doubled = 2 * have;
+  const size_t larger = with_spare > doubled ? with_spare : doubled;
+  return larger > kept_list_minimum ? larger : kept_list_minimum;
+}
+
 // A View kept from call to call for work done every step (a migration's buffers, splitting's new
 // ids), with its host mirror (host_mirror: the View itself where the host may use it): on a GPU an
 // allocation costs more than the kernels of such a step, and a free may wait for the device.
-// hold(n) makes it again where it has fewer than n entries, or where n is under a quarter of them
-// (after a rebalancing moved many particles, the steps' few do not keep that memory for the rest
-// of the run), with a quarter to spare; part(n) and host_part(n) are its first n entries. Not
-// initialised: each use writes the entries it reads.
+// hold(n) makes it again where it has fewer than n entries (grown_capacity), or where n is under a
+// quarter of them, less the floor (after a rebalancing moved many particles, the steps' few do not
+// keep that memory for the rest of the run: made again with a quarter to spare); part(n) and
+// host_part(n) are its first n entries. Not initialised: each use writes the entries it reads.
 template <class ViewType>
 struct KeptBuffer {
   ViewType device;
   typename ViewType::HostMirror host;
   void hold(size_t n, const char* label) {
     const size_t have = device.extent(0);
-    if (have >= n && have <= 4 * n + 1024) return;
-    device = ViewType(Kokkos::view_alloc(std::string(label), Kokkos::WithoutInitializing), n + n / 4);
+    if (have >= n && have <= 4 * n + kept_list_minimum) return;
+    const size_t capacity = have < n ? grown_capacity(n, have) : grown_capacity(n, 0);
+    device = ViewType(Kokkos::view_alloc(std::string(label), Kokkos::WithoutInitializing), capacity);
     host = host_mirror(device);
   }
   ViewType part(size_t n) const { return Kokkos::subview(device, std::make_pair(size_t(0), n)); }

@@ -1446,17 +1446,57 @@ struct EveryNth {
 
 // From an empty buffer, with the selections crowded into one end of the range (on CPUs, where each
 // thread lists its range into its own part of the buffer, that part overflows and the buffer
-// grows), then again into the grown buffer with fewer and with none selected. (Functors, not
-// lambdas: nvcc allows no device lambda in a test's body, a private member function.)
+// grows; more than the lists' floor, kept_list_minimum, so that it grows beyond it), then again
+// into the grown buffer with fewer and with none selected. (Functors, not lambdas: nvcc allows no
+// device lambda in a test's body, a private member function.)
 TEST(ParticleCompaction, SelectIndicesListsTheSelectedInIncreasingOrder) {
-  const index_t first = 5, last = 5000;
+  const index_t first = 5, last = 20000;
   IndexView buffer;
-  expect_selection(first, last, CrowdedAtTheEnd{4400}, buffer, 200 + 46);
+  // 1000 multiples of 3 from 17001 to 19998; 176 of 11 + 97 k below 17000.
+  expect_selection(first, last, CrowdedAtTheEnd{17000}, buffer, 1000 + 176);
   const size_t grown = buffer.extent(0);
-  EXPECT_GE(grown, size_t(246));
-  expect_selection(first, last, EveryNth{50, 7}, buffer, 100);
+  EXPECT_GE(grown, size_t(1176));
+  expect_selection(first, last, EveryNth{50, 7}, buffer, 400);
   EXPECT_EQ(buffer.extent(0), grown);  // kept
   expect_selection(first, last, EveryNth{0, 0}, buffer, 0);
+}
+
+// A kept list whose count rises a little every step, as splitting's and merging's do while a wake
+// forms, is made again a number of times logarithmic in the count's range (grown_capacity: at
+// least doubled, from a floor of kept_list_minimum entries), not at every quarter's growth; a
+// count that falls to a few keeps the list until it is under a quarter of it, less the floor.
+TEST(KeptBuffer, ACountRisingEveryStepRemakesItLogarithmicallyOften) {
+  KeptBuffer<IndexView> kept;
+  int made = 0;
+  const auto hold = [&](size_t n) {
+    const index_t* before = kept.device.data();
+    kept.hold(n, "test_kept");
+    made += kept.device.data() != before;
+    ASSERT_GE(kept.device.extent(0), n);
+    ASSERT_GE(kept.host.extent(0), n);
+  };
+  // From 10 to 100 000 by 2 % a step (467 holds): once to the floor, then doubled from 1024 past
+  // 100 000 (seven times: 2048 .. 131072); grown by a quarter alone, it was made 39 times.
+  double count = 10;
+  while (count < 1e5) {
+    hold(static_cast<size_t>(count));
+    count *= 1.02;
+  }
+  hold(100000);
+  EXPECT_EQ(made, 8);
+  EXPECT_EQ(kept.device.extent(0), size_t(131072));
+  // Down to 40 000 (more than a quarter of it, less the floor): kept; to 100: made again, smaller.
+  made = 0;
+  hold(40000);
+  EXPECT_EQ(made, 0);
+  hold(100);
+  EXPECT_EQ(made, 1);
+  EXPECT_EQ(kept.device.extent(0), kept_list_minimum);
+  // grown_capacity: a quarter to spare, at least double, at least the floor.
+  EXPECT_EQ(grown_capacity(0, 0), kept_list_minimum);
+  EXPECT_EQ(grown_capacity(2000, 0), size_t(2500));
+  EXPECT_EQ(grown_capacity(2000, 1900), size_t(3800));
+  EXPECT_EQ(grown_capacity(4000, 1900), size_t(5000));
 }
 
 TYPED_TEST(TransferKernels, P2GThenG2PReproducesLinearFieldsExactly) {
