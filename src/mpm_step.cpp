@@ -126,7 +126,7 @@ void finish_step(const StepState& s, const StepSettings& settings, real_t dt, lo
   }
   if (settings.reorder_interval > 0 && step % settings.reorder_interval == 0) {  // 12. optional reordering
     auto t = timers.scope(Phase::reorder);
-    reorder_particles_by_cell(s.particles, slab.geometry().num_cells());
+    reorder_particles_by_cell(s.particles, slab.geometry().num_cells(), s.reorder_order);
   }
 }
 

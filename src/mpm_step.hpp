@@ -23,6 +23,7 @@ struct StepState {
   const ParticleMerging& merging;
   PhaseTimers& timers;
   ObstacleForces& obstacle_forces;  // of the step, on this slab's nodes
+  CellOrder& reorder_order;         // step 12's, kept from reordering to reordering
 };
 
 // What a step needs to know besides the state: fixed for a run. The Solver sets every field from

@@ -180,8 +180,7 @@ void update_cell_map(const GridGeometry& geometry, const ParticleState& particle
       KOKKOS_LAMBDA(const index_t p) { cell(p) = geometry.cell_of(x(p), y(p)); });
 }
 
-void reorder_particles_by_cell(ParticleState& particles, index_t num_cells) {
-  CellOrder order;
+void reorder_particles_by_cell(ParticleState& particles, index_t num_cells, CellOrder& order) {
   order.build(particles.cell, particles.count, num_cells);
   if constexpr (cpu_code_paths) {
     // Each field gathered into new storage, the old freed: the bytes moved once (the freed blocks

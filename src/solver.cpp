@@ -103,11 +103,12 @@ Solver::MemoryUse Solver::memory_use() const {
   });
   use.grid_bytes = slab_->fields().bytes();
   use.scatter_copy_bytes = transfers_->scratch_bytes();
+  use.reorder_bytes = reorder_order_.bytes();
   return use;
 }
 
 StepState Solver::step_state() {
-  return {*slab_, particles_, *transfers_, migration_, open_sides_, splitting_, merging_, timers_, step_forces_};
+  return {*slab_, particles_, *transfers_, migration_, open_sides_, splitting_, merging_, timers_, step_forces_, reorder_order_};
 }
 
 void Solver::prepare_grid() {

@@ -128,13 +128,15 @@ class Solver {
   real_t node_mass_threshold() const { return settings_.node_mass_threshold; }
   void set_node_mass_threshold(real_t threshold) { settings_.node_mass_threshold = threshold; }
 
-  // Bytes of device memory the solver holds, by owner: particle fields, grid fields and the P2G
-  // scratch (duplicated ScatterView copies, or the cell order of the sorted strategy).
+  // Bytes of device memory the solver holds, by owner: particle fields, grid fields, the P2G
+  // scratch (duplicated ScatterView copies, or the cell order of the sorted strategy) and the
+  // reordering's cell order (step 12, kept between reorderings).
   struct MemoryUse {
     size_t particle_bytes = 0;
     size_t grid_bytes = 0;
     size_t scatter_copy_bytes = 0;
-    size_t total() const { return particle_bytes + grid_bytes + scatter_copy_bytes; }
+    size_t reorder_bytes = 0;
+    size_t total() const { return particle_bytes + grid_bytes + scatter_copy_bytes + reorder_bytes; }
   };
   MemoryUse memory_use() const;
 
@@ -165,6 +167,7 @@ class Solver {
   long step_count_ = 0;
   long long particle_steps_ = 0;
   ObstacleForces step_forces_;
+  CellOrder reorder_order_;  // step 12's cell order, its arrays kept between reorderings
   double last_stable_time_step_ = 0;
   int stop_request_ = 0;
   // Whether the grid holds steps 2-3 (project_particles_to_grid) of the particles as they are.
