@@ -16,6 +16,7 @@
 #include "particles.hpp"
 #include "slab_state.hpp"
 #include "transfers.hpp"
+#include "round_off.hpp"
 
 namespace mpmflow {
 namespace {
@@ -39,14 +40,14 @@ TEST(FarFieldBoundary, TheInvariantsPressureHoldsTheFreeStreamAndPushesTowardsIt
 
 TEST(SubCellConsistency, TheAcousticFractionIsTheShareOfACellSoundCrossesAtMostAll) {
   const double h = 0.1;
-  EXPECT_DOUBLE_EQ(acoustic_fraction(0.01 / h, 2.0), 0.2);
+  EXPECT_DOUBLE_EQ(acoustic_fraction(0.01 / h, 2.0), real_t(0.2));  // (0.2 as the build's reals hold it)
   EXPECT_DOUBLE_EQ(acoustic_fraction(0.1 / h, 2.0), 1.0);
   EXPECT_DOUBLE_EQ(acoustic_fraction(0.01 / h, 0.0), 0.0);
 }
 
 TEST(SubCellConsistency, RelativeSpreadIsTheVolumeWeightedDeviationOverTheMean) {
   // Two particles of volume 1 with q = 0.9 and 1.1: mean 1, deviation 0.1.
-  EXPECT_NEAR(relative_spread(2.0, 0.9 + 1.1, 0.81 + 1.21), 0.1, 1e-12);
+  EXPECT_NEAR(relative_spread(2.0, 0.9 + 1.1, 0.81 + 1.21), 0.1, round_off(1e-12));
   EXPECT_DOUBLE_EQ(relative_spread(2.0, 2.0, 2.0), 0.0);  // all equal
 }
 
@@ -55,15 +56,15 @@ TEST(SubCellConsistency, PressureRelaxationActsOnNoiseAtTheAcousticRateAndLeaves
   // A cell of gas with c = 1: e = 1 / (gamma (gamma - 1)).
   const double mass = 1.4, energy = mass / (gamma * (gamma - 1));
   // Quiet: the acoustic fraction dt c / h = 0.1.
-  EXPECT_NEAR(pressure_relaxation_fraction(gamma, dt / h, 1.0, mass, energy, 0.0, 0.0), 0.1, 1e-12);
+  EXPECT_NEAR(pressure_relaxation_fraction(gamma, dt / h, 1.0, mass, energy, 0.0, 0.0), 0.1, round_off(1e-12));
   // Noise of 5 %: 1 - 0.05 / 0.25 of it.
-  EXPECT_NEAR(pressure_relaxation_fraction(gamma, dt / h, 1.0, mass, energy, 0.05, 0.01), 0.08, 1e-12);
-  EXPECT_NEAR(pressure_relaxation_fraction(gamma, dt / h, 1.0, mass, energy, 0.01, 0.05), 0.08, 1e-12);
+  EXPECT_NEAR(pressure_relaxation_fraction(gamma, dt / h, 1.0, mass, energy, 0.05, 0.01), 0.08, round_off(1e-12));
+  EXPECT_NEAR(pressure_relaxation_fraction(gamma, dt / h, 1.0, mass, energy, 0.01, 0.05), 0.08, round_off(1e-12));
   // A shock or a contact within the cell (spread 25 % or more): nothing.
   EXPECT_EQ(pressure_relaxation_fraction(gamma, dt / h, 1.0, mass, energy, 0.3, 0.0), 0.0);
   EXPECT_EQ(pressure_relaxation_fraction(gamma, dt / h, 1.0, mass, energy, 0.0, 0.25), 0.0);
   // A long step: at most all the way.
-  EXPECT_NEAR(pressure_relaxation_fraction(gamma, 1.0 / h, 1.0, mass, energy, 0.0, 0.0), 1.0, 1e-12);
+  EXPECT_NEAR(pressure_relaxation_fraction(gamma, 1.0 / h, 1.0, mass, energy, 0.0, 0.0), 1.0, round_off(1e-12));
   // An empty cell, or one without internal energy: nothing.
   EXPECT_EQ(pressure_relaxation_fraction(gamma, dt / h, 0.0, 0.0, 0.0, 0.0, 0.0), 0.0);
   EXPECT_EQ(pressure_relaxation_fraction(gamma, dt / h, 1.0, mass, 0.0, 0.0, 0.0), 0.0);
@@ -83,7 +84,7 @@ TEST(SubCellConsistency, RelaxedVolumeSharesKeepTheCellsVolumeAndFollowTheIsentr
   };
   double shares = 0;
   for (int k = 0; k < 3; ++k) shares += relaxed_volume_share(volume[k], pressure[k], mean);
-  EXPECT_NEAR(shares, total, 1e-15);
+  EXPECT_NEAR(shares, total, round_off(1e-15));
   EXPECT_GT(relaxed_volume_share(volume[0], pressure[0], mean), volume[0]);
   EXPECT_LT(relaxed_volume_share(volume[1], pressure[1], mean), volume[1]);
   // To first order the isentrope V (p / P)^(1 / gamma): 2 % off in pressure, 4e-5 relative off in volume.
@@ -92,10 +93,10 @@ TEST(SubCellConsistency, RelaxedVolumeSharesKeepTheCellsVolumeAndFollowTheIsentr
 }
 
 TEST(SubCellConsistency, VolumeCorrectionCompressesOverfilledAndExpandsUnderfilledSpace) {
-  const double rho = 1.4, rate = 0.1, p = 1.0;  // a particle at its nodes' mean pressure
+  const real_t rho = 1.4, rate = 0.1, p = 1.0;  // (real_t: unchanged is the density as the build holds it)  // a particle at its nodes' mean pressure
   EXPECT_DOUBLE_EQ(volume_corrected_density(rho, 1.0, rate, p, p), rho);
-  EXPECT_NEAR(volume_corrected_density(rho, 1.1, rate, p, p), rho * 1.01, 1e-12);  // over-filled: denser
-  EXPECT_NEAR(volume_corrected_density(rho, 0.9, rate, p, p), rho * 0.99, 1e-12);  // part empty: lighter
+  EXPECT_NEAR(volume_corrected_density(rho, 1.1, rate, p, p), rho * 1.01, round_off(1e-12));  // over-filled: denser
+  EXPECT_NEAR(volume_corrected_density(rho, 0.9, rate, p, p), rho * 0.99, round_off(1e-12));  // part empty: lighter
   // Where the gas does not fill the stencil (a free surface, a near-vacuum) or phi is wild: unchanged.
   EXPECT_DOUBLE_EQ(volume_corrected_density(rho, 0.4, rate, p, p), rho);
   EXPECT_DOUBLE_EQ(volume_corrected_density(rho, 2.5, rate, p, p), rho);
@@ -111,21 +112,23 @@ TEST(SubCellConsistency, VolumeCorrectionCompressesOverfilledAndExpandsUnderfill
 // compressed again and again: densities of 1e10). Expanded: one at a tenth of the mean by a tenth
 // of the full rate, one above it by the full rate.
 TEST(SubCellConsistency, VolumeCorrectionTakesTheOverfillFromTheSoftParticlesAndExpandsNoneBelowTheMeanFully) {
-  const double rho = 1.4, rate = 0.1, mean = 1.0;
-  EXPECT_NEAR(volume_corrected_density(rho, 1.5, rate, 20.0, mean), rho * (1 + 0.05 / 20), 1e-12);
-  EXPECT_NEAR(volume_corrected_density(rho, 1.5, rate, 0.1, mean), rho * 1.5, 1e-12);
-  EXPECT_NEAR(volume_corrected_density(rho, 1.5, rate, 0.001, mean), rho * 2, 1e-12);  // at most doubled
-  EXPECT_NEAR(volume_corrected_density(rho, 0.6, rate, 0.1, mean), rho * (1 - 0.04 * 0.1), 1e-12);
-  EXPECT_NEAR(volume_corrected_density(rho, 0.6, rate, 20.0, mean), rho * 0.96, 1e-12);
+  const real_t rho = 1.4, rate = 0.1, mean = 1.0;
+  EXPECT_NEAR(volume_corrected_density(rho, 1.5, rate, 20.0, mean), rho * (1 + 0.05 / 20), round_off(1e-12));
+  EXPECT_NEAR(volume_corrected_density(rho, 1.5, rate, 0.1, mean), rho * 1.5, round_off(1e-12));
+  EXPECT_NEAR(volume_corrected_density(rho, 1.5, rate, 0.001, mean), rho * 2, round_off(1e-12));  // at most doubled
+  EXPECT_NEAR(volume_corrected_density(rho, 0.6, rate, 0.1, mean), rho * (1 - 0.04 * 0.1), round_off(1e-12));
+  EXPECT_NEAR(volume_corrected_density(rho, 0.6, rate, 20.0, mean), rho * 0.96, round_off(1e-12));
   // Repeated over many steps at phi = 1.5 (the dense particle's volume does not bring phi down),
-  // its density grows as its pressure over the mean allows, not geometrically.
+  // its density grows as its pressure over the mean allows, not geometrically: by
+  // rate (phi - 1) mean / ((gamma - 1) e) a step, 0.0035, to 1.5 rho after 200 steps. (Bounded by
+  // 1.5 rho instead, the test failed in single precision, which reached it to the last bit.)
   double dense = rho, pressure = 20.0;
   const double energy = pressure / (0.4 * dense);
   for (int step = 0; step < 200; ++step) {
     dense = volume_corrected_density(dense, 1.5, rate, pressure, mean);
     pressure = 0.4 * dense * energy;
   }
-  EXPECT_LT(dense, 1.5 * rho);  // (at the full rate, 1.05^200 = 1.7e4 times)
+  EXPECT_NEAR(dense, rho + 200 * rate * 0.5 * mean / (0.4 * energy), round_off(1e-12));  // (at the full rate, 1.05^200 = 1.7e4 times)
   // And a thin particle at a tenth of the mean in an under-filled node thins out slowly, not
   // geometrically at the full rate (0.96^200 = 2.8e-4 times).
   double thin = 0.14;
@@ -141,11 +144,11 @@ TEST(SubCellConsistency, VolumeCorrectionTakesTheOverfillFromTheSoftParticlesAnd
 TEST(SubCellConsistency, NodeVolumeFractionIsNeutralWhereTheSpaceIsUnknownAndOneSidedNextToABody) {
   const double smallest = 0.25;
   for (const bool gas_outside : {false, true}) {
-    EXPECT_DOUBLE_EQ(node_volume_fraction(1.1, 1.0, smallest, gas_outside), 1.1);
+    EXPECT_DOUBLE_EQ(node_volume_fraction(1.1, 1.0, smallest, gas_outside), real_t(1.1));
     EXPECT_DOUBLE_EQ(node_volume_fraction(0.5, 0.5, smallest, gas_outside), 1.0);  // on a side: half the space, half the volume
     EXPECT_DOUBLE_EQ(node_volume_fraction(0.3, 0.0, smallest, gas_outside), 1.0);  // beyond the domain, at a far-field side
     EXPECT_DOUBLE_EQ(node_volume_fraction(0.3, 0.2, smallest, gas_outside), 1.0);  // a corner cut by a body
-    EXPECT_DOUBLE_EQ(node_volume_fraction(0.45, -0.5, smallest, gas_outside), 0.9);  // next to a body: a shortfall counts
+    EXPECT_DOUBLE_EQ(node_volume_fraction(0.45, -0.5, smallest, gas_outside), real_t(0.9));  // next to a body: a shortfall counts
     EXPECT_DOUBLE_EQ(node_volume_fraction(0.6, -0.5, smallest, gas_outside), 1.0);   // an excess does not
   }
 }
@@ -157,9 +160,9 @@ TEST(SubCellConsistency, NodeVolumeFractionIsNeutralWhereTheSpaceIsUnknownAndOne
 // (phi 0.8 as a mean) had been expanded at every step, at its specific energy, and heated as the
 // flow compressed it again (README, Status: the block's wake).
 TEST(SubCellConsistency, ANodeTheGasLeavesMoreThanHalfEmptyLeavesTheParticlesReachingItAlone) {
-  const double smallest = 0.25, rho = 1.4, rate = 0.1, p = 1.0;
+  const real_t smallest = 0.25, rho = 1.4, rate = 0.1, p = 1.0;
   const double unfilled = node_volume_fraction(0.2, 1.0, smallest, false);
-  EXPECT_DOUBLE_EQ(node_volume_fraction(0.2, 1.0, smallest, true), 0.2);  // a pressure side's
+  EXPECT_DOUBLE_EQ(node_volume_fraction(0.2, 1.0, smallest, true), real_t(0.2));  // a pressure side's
   EXPECT_DOUBLE_EQ(node_volume_fraction(0.5, 1.0, smallest, false), 0.5);  // half full: a fraction still
   EXPECT_DOUBLE_EQ(node_volume_fraction(0.2, -1.0, smallest, false), unfilled);  // a gap beside a body
   EXPECT_DOUBLE_EQ(node_volume_fraction(0.0, 1.0, smallest, false), unfilled);
@@ -167,7 +170,7 @@ TEST(SubCellConsistency, ANodeTheGasLeavesMoreThanHalfEmptyLeavesTheParticlesRea
     const double phi = (1 - weight) * 0.95 + weight * unfilled;  // interpolated over the stencil
     EXPECT_DOUBLE_EQ(volume_corrected_density(rho, phi, rate, p, p), rho) << weight;
   }
-  EXPECT_NEAR(volume_corrected_density(rho, 0.95, rate, p, p), rho * 0.995, 1e-12);  // without that node: expanded
+  EXPECT_NEAR(volume_corrected_density(rho, 0.95, rate, p, p), rho * 0.995, round_off(1e-12));  // without that node: expanded
   // Single precision too: the sum of a stencil's nine nodes at the mark stays finite.
   EXPECT_LT(9 * static_cast<double>(unfilled_node_volume_fraction), static_cast<double>(std::numeric_limits<float>::max()));
 }
@@ -254,13 +257,13 @@ TEST(SubCellConsistency, TheRelaxationPassKeepsEachCellsVolumeAndEnergyAndEvensI
       }
       const double mean = (gamma - 1) * c.energy / c.volume, p = perfect_gas_pressure(gamma, rho[k], e[k]);
       const double relaxed = perfect_gas_pressure(gamma, rho_after[k], e_after[k]);
-      EXPECT_NEAR(relaxed - mean, (1 - fraction) * (p - mean), 0.05 * std::fabs(p - mean) + 1e-12 * mean)
+      EXPECT_NEAR(relaxed - mean, (1 - fraction) * (p - mean), 0.05 * std::fabs(p - mean) + round_off(1e-12) * mean)
           << "particle " << k << " of cell " << cell[k] << ", fraction " << fraction;
     }
     int relaxed_cells = 0, still_cells = 0;
     for (const auto& [c, sums] : before) {
-      EXPECT_NEAR(after[c].volume, sums.volume, 1e-12 * sums.volume) << "cell " << c;
-      EXPECT_NEAR(after[c].energy, sums.energy, 1e-12 * sums.energy) << "cell " << c;
+      EXPECT_NEAR(after[c].volume, sums.volume, round_off(1e-12) * sums.volume) << "cell " << c;
+      EXPECT_NEAR(after[c].energy, sums.energy, round_off(1e-12) * sums.energy) << "cell " << c;
       (sums.fraction > 0 ? relaxed_cells : still_cells) += 1;
       if (c == noisy_cell) EXPECT_EQ(sums.fraction, 0) << "a spread of 40 % is left alone";
     }

@@ -17,6 +17,7 @@
 #include "kernels/particle_compaction.hpp"
 #include "kernels/particle_sort.hpp"
 #include "kernels/transfer_kernels.hpp"
+#include "round_off.hpp"
 
 namespace mpmflow {
 namespace {
@@ -402,15 +403,15 @@ TYPED_TEST(TransferKernels, PartitionOfUnityAndZeroGradientSum) {
   for (index_t k = 0; k < d.count; ++k) {
     double sum = 0, gx = 0, gy = 0;
     for (int a = 0; a < Shape::stencil_size; ++a) {
-      EXPECT_GE(s.weight(k, a), -1e-15);
-      EXPECT_LE(s.weight(k, a), 1 + 1e-15);
+      EXPECT_GE(s.weight(k, a), -round_off(1e-15));
+      EXPECT_LE(s.weight(k, a), 1 + round_off(1e-15));
       sum += s.weight(k, a);
       gx += s.grad_x(k, a);
       gy += s.grad_y(k, a);
     }
-    EXPECT_NEAR(sum, 1.0, 1e-14);
-    EXPECT_NEAR(gx, 0.0, 1e-12);
-    EXPECT_NEAR(gy, 0.0, 1e-12);
+    EXPECT_NEAR(sum, 1.0, round_off(1e-14));
+    EXPECT_NEAR(gx, 0.0, round_off(1e-12));
+    EXPECT_NEAR(gy, 0.0, round_off(1e-12));
   }
 }
 
@@ -463,10 +464,10 @@ TYPED_TEST(BatchedStencils, EqualThePerParticleStencils) {
         ASSERT_EQ(got.first_node, expected.first_node) << "particle " << particle;
         for (int a = 0; a < K; ++a) {
           // The same arithmetic, vectorised: equal but for how the compiler contracts it into FMAs.
-          EXPECT_NEAR(got.wx[a], expected.wx[a], 1e-15) << "particle " << particle;
-          EXPECT_NEAR(got.wy[a], expected.wy[a], 1e-15) << "particle " << particle;
-          EXPECT_NEAR(got.gx[a], expected.gx[a], 1e-14 * std::fabs(expected.gx[a]) + 1e-15) << "particle " << particle;
-          EXPECT_NEAR(got.gy[a], expected.gy[a], 1e-14 * std::fabs(expected.gy[a]) + 1e-15) << "particle " << particle;
+          EXPECT_NEAR(got.wx[a], expected.wx[a], round_off(1e-15)) << "particle " << particle;
+          EXPECT_NEAR(got.wy[a], expected.wy[a], round_off(1e-15)) << "particle " << particle;
+          EXPECT_NEAR(got.gx[a], expected.gx[a], round_off(1e-14) * std::fabs(expected.gx[a]) + round_off(1e-15)) << "particle " << particle;
+          EXPECT_NEAR(got.gy[a], expected.gy[a], round_off(1e-14) * std::fabs(expected.gy[a]) + round_off(1e-15)) << "particle " << particle;
         }
         ++compared;
       }
@@ -611,8 +612,8 @@ TEST(ShapeFunctions, BranchFreeGimpWeightsEqualThePiecewiseForm) {
     for (int a = 0; a < 3; ++a) {
       real_t ref_w, ref_g;
       gimp_weight_1d((xi - (a - 1)) * h, h, lambda * h, ref_w, ref_g);
-      ASSERT_NEAR(w[a], ref_w, 1e-13) << "node " << a << " xi " << xi << " lambda " << lambda;
-      ASSERT_NEAR(g[a] * h, ref_g * h, 1e-12) << "node " << a << " xi " << xi << " lambda " << lambda;
+      ASSERT_NEAR(w[a], ref_w, round_off(1e-13)) << "node " << a << " xi " << xi << " lambda " << lambda;
+      ASSERT_NEAR(g[a] * h, ref_g * h, round_off(1e-12)) << "node " << a << " xi " << xi << " lambda " << lambda;
     }
   }
 }
@@ -647,10 +648,10 @@ TEST(ShapeFunctions, BSplineWeightsEqualThePiecewiseFormAndGimpOverAWholeCell) {
     for (int a = 0; a < 3; ++a) {
       real_t ref_w, ref_g;
       bspline_weight_1d((xi - (a - 1)) * h, h, ref_w, ref_g);
-      ASSERT_NEAR(w[a], ref_w, 1e-14) << "node " << a << " xi " << xi;
-      ASSERT_NEAR(g[a] * h, ref_g * h, 1e-13) << "node " << a << " xi " << xi;
-      ASSERT_NEAR(w[a], gimp_w[a], 1e-14) << "node " << a << " xi " << xi;
-      ASSERT_NEAR(g[a] * h, gimp_g[a] * h, 1e-13) << "node " << a << " xi " << xi;
+      ASSERT_NEAR(w[a], ref_w, round_off(1e-14)) << "node " << a << " xi " << xi;
+      ASSERT_NEAR(g[a] * h, ref_g * h, round_off(1e-13)) << "node " << a << " xi " << xi;
+      ASSERT_NEAR(w[a], gimp_w[a], round_off(1e-14)) << "node " << a << " xi " << xi;
+      ASSERT_NEAR(g[a] * h, gimp_g[a] * h, round_off(1e-13)) << "node " << a << " xi " << xi;
     }
   }
 }
@@ -675,9 +676,9 @@ TYPED_TEST(TransferKernels, G2PReproducesLinearNodalFieldAndGradientExactly) {
   auto hgx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grad_x);
   auto hgy = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), grad_y);
   for (index_t k = 0; k < d.count; ++k) {
-    EXPECT_NEAR(hv(k), linear_field(hx(k), hy(k)), 1e-13);
-    EXPECT_NEAR(hgx(k), -2.0, 1e-12);
-    EXPECT_NEAR(hgy(k), 0.75, 1e-12);
+    EXPECT_NEAR(hv(k), linear_field(hx(k), hy(k)), round_off(1e-13));
+    EXPECT_NEAR(hgx(k), -2.0, round_off(1e-12));
+    EXPECT_NEAR(hgy(k), 0.75, round_off(1e-12));
   }
   // The two in one pass: the same values and gradients.
   RealView both_value("both_value", d.count), both_x("both_x", d.count), both_y("both_y", d.count);
@@ -687,9 +688,9 @@ TYPED_TEST(TransferKernels, G2PReproducesLinearNodalFieldAndGradientExactly) {
   auto bx = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), both_x);
   auto by = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), both_y);
   for (index_t k = 0; k < d.count; ++k) {
-    ASSERT_NEAR(bv(k), hv(k), 1e-14) << k;
-    ASSERT_NEAR(bx(k), hgx(k), 1e-13) << k;
-    ASSERT_NEAR(by(k), hgy(k), 1e-13) << k;
+    ASSERT_NEAR(bv(k), hv(k), round_off(1e-14)) << k;
+    ASSERT_NEAR(bx(k), hgx(k), round_off(1e-13)) << k;
+    ASSERT_NEAR(by(k), hgy(k), round_off(1e-13)) << k;
   }
   // The second of two node fields, 3 f - 1: its value and gradient, not the first's.
   g2p_and_g2pd("test_g2p_and_g2pd_second", shape, d.where, all, TwoLinearNodeFields{nodal},
@@ -698,9 +699,9 @@ TYPED_TEST(TransferKernels, G2PReproducesLinearNodalFieldAndGradientExactly) {
   Kokkos::deep_copy(bx, both_x);
   Kokkos::deep_copy(by, both_y);
   for (index_t k = 0; k < d.count; ++k) {
-    ASSERT_NEAR(bv(k), 3 * linear_field(hx(k), hy(k)) - 1, 1e-12) << k;
-    ASSERT_NEAR(bx(k), 3 * -2.0, 1e-11) << k;
-    ASSERT_NEAR(by(k), 3 * 0.75, 1e-11) << k;
+    ASSERT_NEAR(bv(k), 3 * linear_field(hx(k), hy(k)) - 1, round_off(1e-12)) << k;
+    ASSERT_NEAR(bx(k), 3 * -2.0, round_off(1e-11)) << k;
+    ASSERT_NEAR(by(k), 3 * 0.75, round_off(1e-11)) << k;
   }
 }
 
@@ -750,8 +751,8 @@ void expect_g2p_by_cells_adds_each_particle_into_its_cell() {
   index_t cells_with_particles = 0;
   for (index_t c = 0; c < g.num_cells(); ++c) {
     cells_with_particles += expected_value[static_cast<size_t>(c)] != 0;
-    EXPECT_NEAR(sums(c, 0), expected_value[static_cast<size_t>(c)], 1e-12) << MakeShape::name << " cell " << c;
-    EXPECT_NEAR(sums(c, 1), expected_divergence[static_cast<size_t>(c)], 1e-10) << MakeShape::name << " cell " << c;
+    EXPECT_NEAR(sums(c, 0), expected_value[static_cast<size_t>(c)], round_off(1e-12)) << MakeShape::name << " cell " << c;
+    EXPECT_NEAR(sums(c, 1), expected_divergence[static_cast<size_t>(c)], round_off(1e-10)) << MakeShape::name << " cell " << c;
   }
   EXPECT_GT(cells_with_particles, g.num_cells() / 2) << "particles spread over the grid";
 }
@@ -772,7 +773,7 @@ TYPED_TEST(TransferKernels, P2GConservesMass) {
   double node_total = 0, particle_total = 0;
   for (int i = 0; i < g.num_nodes(); ++i) node_total += h(i, 0);
   for (double m : p.mass) particle_total += m;
-  EXPECT_NEAR(node_total, particle_total, 1e-12 * particle_total);
+  EXPECT_NEAR(node_total, particle_total, round_off(1e-12) * particle_total);
 }
 
 TYPED_TEST(TransferKernels, P2GAgreesWithTheDuplicatedScatterView) {
@@ -788,7 +789,7 @@ TYPED_TEST(TransferKernels, P2GAgreesWithTheDuplicatedScatterView) {
   for (int i = 0; i < g.num_nodes(); ++i) largest = std::max<double>(largest, std::fabs(reference(i, 1)));
   ASSERT_GT(largest, 0);
   for (int i = 0; i < g.num_nodes(); ++i)
-    for (int c = 0; c < 2; ++c) EXPECT_NEAR(mine(i, c), reference(i, c), 1e-13 * largest) << "node " << i;
+    for (int c = 0; c < 2; ++c) EXPECT_NEAR(mine(i, c), reference(i, c), round_off(1e-13) * largest) << "node " << i;
 }
 
 // For the fused kernel: keep the interpolated value and hand back mass x value for the P2G.
@@ -842,13 +843,13 @@ TYPED_TEST(TransferKernels, FusedG2PThenP2GEqualsTheTwoKernels) {
   auto fv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fused_value);
   // The same arithmetic, though the compiler may contract it into FMAs differently in the two
   // kernels: equal to round-off.
-  for (index_t p = 0; p < d.count; ++p) EXPECT_NEAR(fv(p), sv(p), 1e-14) << "particle " << p;
+  for (index_t p = 0; p < d.count; ++p) EXPECT_NEAR(fv(p), sv(p), round_off(1e-14)) << "particle " << p;
   auto sn = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), separate);
   auto fn = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), fused);
   double largest = 0;
   for (int i = 0; i < g.num_nodes(); ++i) largest = std::max<double>(largest, std::fabs(sn(i, 0)));
   ASSERT_GT(largest, 0);
-  for (int i = 0; i < g.num_nodes(); ++i) EXPECT_NEAR(fn(i, 0), sn(i, 0), 1e-13 * largest) << "node " << i;
+  for (int i = 0; i < g.num_nodes(); ++i) EXPECT_NEAR(fn(i, 0), sn(i, 0), round_off(1e-13) * largest) << "node " << i;
 }
 
 // The grouping is unique (the bins in order, each particle once, in index order within its bin),
@@ -1070,7 +1071,7 @@ void expect_coloured_runs_match_the_reference(const GridGeometry& grid) {
     for (int i = 0; i < g.num_nodes(); ++i) largest = std::max<double>(largest, std::fabs(r(i, k)));
     ASSERT_GT(largest, 0);
     for (int i = 0; i < g.num_nodes(); ++i)
-      EXPECT_NEAR(c(i, k), r(i, k), 1e-13 * largest) << "node " << i << ", column " << k;
+      EXPECT_NEAR(c(i, k), r(i, k), round_off(1e-13) * largest) << "node " << i << ", column " << k;
   }
 }
 TEST(ColouredTiles, TheTestGridsWalkStripsAndRectangles) {
@@ -1105,7 +1106,7 @@ void expect_node_columns_match(const NodeFieldsView& actual, const NodeFieldsVie
     if (written(k)) ASSERT_GT(largest, 0) << "column " << k;
     for (size_t i = 0; i < r.extent(0); ++i) {
       if (written(k))
-        EXPECT_NEAR(a(i, k), r(i, k), 1e-13 * largest) << "node " << i << ", column " << k;
+        EXPECT_NEAR(a(i, k), r(i, k), round_off(1e-13) * largest) << "node " << i << ", column " << k;
       else
         EXPECT_EQ(a(i, k), 0) << "node " << i << ", column " << k;
     }
@@ -1299,7 +1300,7 @@ void expect_windowed_g2p_and_g2pd_matches_the_reference(const GridGeometry& grid
     ++compared;
     ASSERT_GT(largest, 0) << "column " << k;
     for (index_t p = 0; p < d.count; ++p)
-      ASSERT_NEAR(w(p, k), r(p, k), 1e-13 * largest) << "particle " << p << ", column " << k;
+      ASSERT_NEAR(w(p, k), r(p, k), round_off(1e-13) * largest) << "particle " << p << ", column " << k;
   }
   EXPECT_EQ(compared, columns_read);
 }
@@ -1345,7 +1346,7 @@ void expect_windowed_g2p_then_p2g_matches_the_reference(const GridGeometry& grid
   auto rv = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), reference_values);
   for (int k = 0; k < N; ++k)
     for (index_t p = 0; p < d.count; ++p)
-      ASSERT_NEAR(wv(p, k), rv(p, k), 1e-13 * (1 + std::fabs(rv(p, k)))) << "particle " << p << ", column " << k;
+      ASSERT_NEAR(wv(p, k), rv(p, k), round_off(1e-13) * (1 + std::fabs(rv(p, k)))) << "particle " << p << ", column " << k;
   expect_node_columns_match(windowed, reference, [&](int k) { return k >= first_written && k < first_written + M; });
 }
 TEST(ColouredTiles, WindowedG2PThenP2GGivesTheReferenceValuesAndSums) {
@@ -1513,7 +1514,7 @@ TYPED_TEST(TransferKernels, P2GThenG2PReproducesLinearFieldsExactly) {
     for (int i = 0; i < g.nodes_x; ++i) {
       if (!is_inner_node(g, i, j, margin)) continue;
       const int n = g.node_index(i, j);
-      EXPECT_NEAR(h(n, 1) / h(n, 0), linear_field(g.node_x(i), g.node_y(j)), 1e-13) << "node " << i << "," << j;
+      EXPECT_NEAR(h(n, 1) / h(n, 0), linear_field(g.node_x(i), g.node_y(j)), round_off(1e-13)) << "node " << i << "," << j;
     }
 
   RealView value("value", d.count);
@@ -1526,7 +1527,7 @@ TYPED_TEST(TransferKernels, P2GThenG2PReproducesLinearFieldsExactly) {
   int checked = 0;
   for (index_t k = 0; k < d.count; ++k) {
     if (!stencil_is_inner(stencils, g, margin, k)) continue;
-    EXPECT_NEAR(hv(k), linear_field(hx(k), hy(k)), 1e-13);
+    EXPECT_NEAR(hv(k), linear_field(hx(k), hy(k)), round_off(1e-13));
     ++checked;
   }
   // At least the particles nearest to the inner nodes whose neighbours are inner too (9 per node).
@@ -1547,8 +1548,8 @@ TYPED_TEST(TransferKernels, P2GDOfConstantFieldSumsToZero) {
       scale += std::fabs(h(i, 0)) + std::fabs(h(i, 1));
     }
     EXPECT_GT(scale, 1.0);
-    EXPECT_NEAR(sum_x, 0.0, 1e-12 * scale);
-    EXPECT_NEAR(sum_y, 0.0, 1e-12 * scale);
+    EXPECT_NEAR(sum_x, 0.0, round_off(1e-12) * scale);
+    EXPECT_NEAR(sum_y, 0.0, round_off(1e-12) * scale);
   }
   {  // Regular particles: a uniform pressure exerts no force on any interior node.
     const DeviceParticles d = to_device(g, regular_particles(g, 3));
@@ -1561,13 +1562,13 @@ TYPED_TEST(TransferKernels, P2GDOfConstantFieldSumsToZero) {
       for (int i = 0; i < g.nodes_x; ++i) {
         if (!is_inner_node(g, i, j, TypeParam::MakeShape::inner_margin)) continue;
         const int n = g.node_index(i, j);
-        EXPECT_NEAR(h(n, 0), 0.0, 1e-12);
-        EXPECT_NEAR(h(n, 1), 0.0, 1e-12);
+        EXPECT_NEAR(h(n, 0), 0.0, round_off(1e-12));
+        EXPECT_NEAR(h(n, 1), 0.0, round_off(1e-12));
         interior_sum += h(n, 0) + h(n, 1);
         ++inner_nodes;
       }
     EXPECT_GE(inner_nodes, 20);
-    EXPECT_NEAR(interior_sum, 0.0, 1e-13 * inner_nodes);
+    EXPECT_NEAR(interior_sum, 0.0, round_off(1e-13) * inner_nodes);
     // ...while the nodes on the edge of the gas do feel it (the test is not vacuous).
     EXPECT_GT(std::fabs(h(g.node_index(1, 3), 0)), 1.0);
   }
