@@ -33,6 +33,7 @@
 #include "slab_state.hpp"
 #include "solver.hpp"
 #include "transfers.hpp"
+#include "round_off.hpp"
 
 namespace mpmflow {
 namespace {
@@ -59,7 +60,7 @@ TEST(SignedDistance, CircleDistanceAndOutwardNormal) {
   EXPECT_DOUBLE_EQ(outside.distance, 0.5);
   EXPECT_DOUBLE_EQ(outside.normal_y, 1);
   const SignedDistance inside = set(1.3, 2);
-  EXPECT_NEAR(inside.distance, -0.2, 1e-15);
+  EXPECT_NEAR(inside.distance, -0.2, round_off(1e-15));
   EXPECT_DOUBLE_EQ(inside.normal_x, 1);  // the gradient points out of the obstacle everywhere (eq. 24)
 }
 
@@ -75,14 +76,14 @@ TEST(SignedDistance, PolygonSignDistanceAndNormalForEitherOrientation) {
     EXPECT_DOUBLE_EQ(left_of.distance, 0.25);
     EXPECT_DOUBLE_EQ(left_of.normal_x, -1);
     const SignedDistance inside = set(0.9, 0.5);
-    EXPECT_NEAR(inside.distance, -0.1, 1e-15);
-    EXPECT_NEAR(inside.normal_x, 1, 1e-15);
+    EXPECT_NEAR(inside.distance, -0.1, round_off(1e-15));
+    EXPECT_NEAR(inside.normal_x, 1, round_off(1e-15));
     const SignedDistance corner = set(2, 2);  // nearest point: the corner (1, 1)
-    EXPECT_NEAR(corner.distance, std::sqrt(2.0), 1e-15);
-    EXPECT_NEAR(corner.normal_x, std::sqrt(0.5), 1e-15);
+    EXPECT_NEAR(corner.distance, std::sqrt(2.0), round_off(1e-15));
+    EXPECT_NEAR(corner.normal_x, std::sqrt(0.5), round_off(1e-15));
     const SignedDistance on_edge = set(0.5, 0);
     EXPECT_EQ(on_edge.distance, 0);
-    EXPECT_NEAR(on_edge.normal_y, -1, 1e-15) << "clockwise input " << clockwise;
+    EXPECT_NEAR(on_edge.normal_y, -1, round_off(1e-15)) << "clockwise input " << clockwise;
   }
 }
 
@@ -92,8 +93,8 @@ TEST(SignedDistance, UnionTakesTheNearestObstacle) {
   circle.centre_y = 0.5;
   circle.radius = 0.5;
   const HostObstacleSet set = make_host_obstacle_set({square_obstacle(0, 1), circle});
-  EXPECT_NEAR(set(1.9, 0.5).distance, 0.6, 1e-15);  // 0.9 from the square, 0.6 from the circle
-  EXPECT_NEAR(set(1.2, 0.5).distance, 0.2, 1e-15);
+  EXPECT_NEAR(set(1.9, 0.5).distance, 0.6, round_off(1e-15));  // 0.9 from the square, 0.6 from the circle
+  EXPECT_NEAR(set(1.2, 0.5).distance, 0.2, round_off(1e-15));
 }
 
 TEST(PolygonInput, SeligTitleClosingPointAndTransform) {
@@ -103,8 +104,8 @@ TEST(PolygonInput, SeligTitleClosingPointAndTransform) {
   ASSERT_EQ(polygon.size(), 4u);  // the repeated trailing edge is dropped
   EXPECT_EQ(polygon[2].x, 0.0);
   const Polygon moved = transformed(polygon, {2.0, 90.0, 1.0, 0.0});  // scale 2, rotate 90 degrees, then +x
-  EXPECT_NEAR(moved[0].x, 1.0, 1e-12);
-  EXPECT_NEAR(moved[0].y, 2.0, 1e-12);
+  EXPECT_NEAR(moved[0].x, 1.0, round_off(1e-12));
+  EXPECT_NEAR(moved[0].y, 2.0, round_off(1e-12));
   EXPECT_TRUE(describe_self_intersection(polygon).empty());
   fs::remove(path);
 }
@@ -176,17 +177,17 @@ TEST(SignedDistance, NodeGasVolumeIsTheHatsShareOfTheGasSpace) {
     return volume(g.node_index(static_cast<index_t>(std::lround((x - g.origin_x) / g.spacing_x)),
                                static_cast<index_t>(std::lround((y - g.origin_y) / g.spacing_y))));
   };
-  EXPECT_NEAR(at(1.0, 0.5), area, 1e-15);             // inside
-  EXPECT_NEAR(at(0.0, 0.5), area / 2, 1e-15);         // on the inflow side
-  EXPECT_NEAR(at(4.0, 0.5), area / 2, 1e-15);         // on the outflow side
-  EXPECT_NEAR(at(1.0, 0.0), area / 2, 1e-15);         // on the wall
-  EXPECT_NEAR(at(0.0, 0.0), area / 4, 1e-15);         // in a corner
+  EXPECT_NEAR(at(1.0, 0.5), area, round_off(1e-15));             // inside
+  EXPECT_NEAR(at(0.0, 0.5), area / 2, round_off(1e-15));         // on the inflow side
+  EXPECT_NEAR(at(4.0, 0.5), area / 2, round_off(1e-15));         // on the outflow side
+  EXPECT_NEAR(at(1.0, 0.0), area / 2, round_off(1e-15));         // on the wall
+  EXPECT_NEAR(at(0.0, 0.0), area / 4, round_off(1e-15));         // in a corner
   EXPECT_EQ(at(-0.1, 0.5), 0.0);                      // beyond the domain
   EXPECT_EQ(at(1.0, 2.0), 0.0);                       // on the far-field side
   EXPECT_EQ(at(1.0, 1.9), 0.0);                       // a cell inside it
-  EXPECT_NEAR(at(1.0, 1.8), area, 1e-15);             // two cells inside it
+  EXPECT_NEAR(at(1.0, 1.8), area, round_off(1e-15));             // two cells inside it
   EXPECT_EQ(at(2.0, 1.0), 0.0);                       // deep in the obstacle
-  EXPECT_NEAR(at(2.0, 1.5), area, 1e-15);             // 0.25 from it, beyond a diagonal (0.141)
+  EXPECT_NEAR(at(2.0, 1.5), area, round_off(1e-15));             // 0.25 from it, beyond a diagonal (0.141)
   // 0.05 from it: the hat outside the circle, by a finer midpoint rule than the solver's.
   double outside = 0;
   constexpr int n = 400;
@@ -224,8 +225,8 @@ TEST(SignedDistance, TheNearBoxHoldsEveryCellAnObstacleMayReachInto) {
     }
   EXPECT_GT(flagged, 0);
   // The circle and a cell diagonal around it, to within a cell: [1.6, 2.4] x [0.6, 1.4].
-  EXPECT_LT(grid.near_x_max - grid.near_x_min, 0.8 + 2 * g.spacing_x + 1e-12);
-  EXPECT_LT(grid.near_y_max - grid.near_y_min, 0.8 + 2 * g.spacing_y + 1e-12);
+  EXPECT_LT(grid.near_x_max - grid.near_x_min, 0.8 + 2 * g.spacing_x + round_off(1e-12));
+  EXPECT_LT(grid.near_y_max - grid.near_y_min, 0.8 + 2 * g.spacing_y + round_off(1e-12));
   EXPECT_FALSE(rules.near_an_obstacle(0.5, 0.5));
   CaseConfig empty = config;
   empty.obstacles.clear();
@@ -298,7 +299,7 @@ void expect_same_signed_distance(const HostObstacleSet& first, const HostObstacl
   for (double x = x0; x <= x1; x += step)
     for (double y = y0; y <= y1; y += step) {
       const SignedDistance a = first(x, y), b = second(x, y);
-      EXPECT_NEAR(a.distance, b.distance, 1e-12) << x << ", " << y;
+      EXPECT_NEAR(a.distance, b.distance, round_off(1e-12)) << x << ", " << y;
       EXPECT_NEAR(a.normal_x, b.normal_x, 1e-9) << x << ", " << y;
       EXPECT_NEAR(a.normal_y, b.normal_y, 1e-9) << x << ", " << y;
     }
@@ -324,13 +325,13 @@ TEST(SignedDistance, AnObstacleReachingBeyondTheDomainIsItsPartInside) {
   // In the file's order, from its first vertex (inside): the face, then along the top, the right
   // side and the floor.
   const std::vector<real_t> expected_x = {0.5, top_x, 4, 4};
-  for (size_t v = 0; v < 4; ++v) EXPECT_NEAR(o.vertices_x[v], expected_x[v], 1e-12) << v;
+  for (size_t v = 0; v < 4; ++v) EXPECT_NEAR(o.vertices_x[v], expected_x[v], round_off(1e-12)) << v;
   EXPECT_EQ(o.vertices_y, (std::vector<real_t>{0, 2, 2, 0}));  // on the sides exactly
   EXPECT_EQ(o.edge_side, (std::vector<int>{-1, top_side, right_side, bottom_side}));
   const HostObstacleSet clipped_set = make_host_obstacle_set(clipped.obstacles);
   const HostObstacleSet given_set = make_host_obstacle_set(given.obstacles);
   expect_same_signed_distance(clipped_set, given_set, 0, 4, 0, 2, 0.1);
-  EXPECT_NEAR(clipped_set(2, 0.5).distance, -((2 - 0.5) * tan30 - 0.5) * std::cos(3.14159265358979323846 / 6), 1e-12);
+  EXPECT_NEAR(clipped_set(2, 0.5).distance, -((2 - 0.5) * tan30 - 0.5) * std::cos(3.14159265358979323846 / 6), round_off(1e-12));
   const CaseConfig block = parse_case(
       tunnel_case(kTunnelSides, kFreeStream + R"(, "obstacles": [{"type": "rectangle", "x": [3, 5], "y": [-1, 0.5]}])"),
       "block.json");
@@ -354,7 +355,7 @@ TEST(SignedDistance, ACircleReachingBeyondTheDomainIsThePolygonOfItsPartInside) 
   EXPECT_EQ(half.shape, ObstacleShape::polygon);
   ASSERT_EQ(half.vertices_x.size(), 181u);  // 0 to 180 degrees; the base closes it
   EXPECT_EQ(std::count(half.edge_side.begin(), half.edge_side.end(), int(bottom_side)), 1);
-  EXPECT_NEAR(half.reference_length, 1.0, 1e-12);  // the diameter, along the flow
+  EXPECT_NEAR(half.reference_length, 1.0, round_off(1e-12));  // the diameter, along the flow
   const HostObstacleSet from_circle = make_host_obstacle_set(circle.obstacles);
   const HostObstacleSet from_file = make_host_obstacle_set(file.obstacles);
   expect_same_signed_distance(from_circle, from_file, 1, 3, 0, 1, 0.05);
@@ -386,8 +387,8 @@ TEST(SignedDistance, NodesOnAFaceAlongAGridLineAreInsideWithTheFacesNormal) {
   auto expect_normal = [&](index_t i, index_t j, double nx, double ny) {
     const auto it = normal_at.find({i, j});
     ASSERT_NE(it, normal_at.end()) << "node " << i << ", " << j << " is not inside";
-    EXPECT_NEAR(it->second.first, nx, 1e-12) << "node " << i << ", " << j;
-    EXPECT_NEAR(it->second.second, ny, 1e-12) << "node " << i << ", " << j;
+    EXPECT_NEAR(it->second.first, nx, round_off(1e-12)) << "node " << i << ", " << j;
+    EXPECT_NEAR(it->second.second, ny, round_off(1e-12)) << "node " << i << ", " << j;
   };
   for (index_t j = floor; j < top; ++j) expect_normal(front, j, -1, 0), expect_normal(back, j, 1, 0);
   for (index_t i = front + 1; i < back; ++i) expect_normal(i, top, 0, 1);
@@ -607,7 +608,7 @@ TEST(Recycling, ReentersWhereItLeftAlongTheSideWithTheFreeStreamStateIndependent
   EXPECT_EQ(a, b);
   // 0.01 beyond the outflow (at x = 4.01): 0.01 inside the inflow, at the height it left at.
   for (const auto& [id, position] : a) {
-    EXPECT_NEAR(position.first, 0.01, 1e-12) << id;
+    EXPECT_NEAR(position.first, 0.01, round_off(1e-12)) << id;
     EXPECT_EQ(position.second, exits.at(id).second) << id;
   }
   auto rho = Kokkos::create_mirror_view_and_copy(Kokkos::HostSpace(), forward.density);
@@ -617,7 +618,7 @@ TEST(Recycling, ReentersWhereItLeftAlongTheSideWithTheFreeStreamStateIndependent
   for (index_t k = 0; k < forward.count; ++k) {
     EXPECT_EQ(rho(k), real_t(1.4));
     EXPECT_EQ(vx(k), real_t(3));
-    EXPECT_NEAR(m(k), id(k) == 0 ? placed_mass / 2 : placed_mass, 1e-15) << id(k);
+    EXPECT_NEAR(m(k), id(k) == 0 ? placed_mass / 2 : placed_mass, round_off(1e-15)) << id(k);
   }
   // What left and what entered are counted: all the mass, once each way, the split half's half.
   const double total_mass = 8 * 1.4 - placed_mass / 2;
@@ -636,7 +637,7 @@ TEST(Recycling, GasThatWentBeyondMoreThanTheStripIsDeepIsWrappedIntoIt) {
   apply_particle_boundaries(slab_state.particle_boundaries(), pt, dt);
   OpenBoundaries open_sides(config, slab);
   open_sides.exchange(pt, slab_state, dt, 3);
-  for (const auto& [id, position] : positions_by_id(pt)) EXPECT_NEAR(position.first, 0.04, 1e-12) << id;
+  for (const auto& [id, position] : positions_by_id(pt)) EXPECT_NEAR(position.first, 0.04, round_off(1e-12)) << id;
 }
 
 // ---- Open sides: particles entering and leaving ----------------------------------------------------
@@ -720,7 +721,7 @@ TEST(OpenSides, InflowMassPerStepIsTheFreeStreamFluxWithinOneParticleAndIdsAreUn
     double mean_y = 0;
     for (const auto& p : run.particles) {
       EXPECT_GE(p.second.first, 0);
-      EXPECT_LE(p.second.first, 3 * 0.01 + 0.1 / 6 + 1e-12);
+      EXPECT_LE(p.second.first, 3 * 0.01 + 0.1 / 6 + round_off(1e-12));
       EXPECT_GE(p.second.second, 0);
       EXPECT_LE(p.second.second, 2);
       mean_y += p.second.second / run.particles.size();
@@ -769,9 +770,9 @@ TEST(OpenSides, ParticlesLeavingAreRemovedAndCounted) {
   EXPECT_EQ(kept, static_cast<index_t>(staying.size()));
   EXPECT_EQ(entered, 48);
   EXPECT_EQ(pt.count, kept + entered);
-  EXPECT_NEAR(open_sides.fluxes().left.mass, (n - staying.size()) * 1.4 * 0.01 / 4, 1e-12);
-  EXPECT_NEAR(open_sides.fluxes().left.momentum_x, 3 * open_sides.fluxes().left.mass, 1e-12);
-  EXPECT_NEAR(open_sides.fluxes().entered.mass, 48 * 1.4 * 0.01 / 4, 1e-12);
+  EXPECT_NEAR(open_sides.fluxes().left.mass, (n - staying.size()) * 1.4 * 0.01 / 4, round_off(1e-12));
+  EXPECT_NEAR(open_sides.fluxes().left.momentum_x, 3 * open_sides.fluxes().left.mass, round_off(1e-12));
+  EXPECT_NEAR(open_sides.fluxes().entered.mass, 48 * 1.4 * 0.01 / 4, round_off(1e-12));
 }
 
 // The allocations a tracker counted, by label, for a failure's message.
@@ -1265,15 +1266,15 @@ ObstacleNodesSeen expect_obstacle_conditions(const std::string& obstacles) {
         if (placement == ObstacleGrid::on_face) seen.outward += before_n > 0, seen.kept_outward += kept;
         if (!kept) expected_x -= before_n * nx, expected_y -= before_n * ny;
       }
-      EXPECT_NEAR(after(node, column), expected_x, 1e-14) << "node " << node << ", column " << column;
-      EXPECT_NEAR(after(node, column + 1), expected_y, 1e-14) << "node " << node << ", column " << column;
+      EXPECT_NEAR(after(node, column), expected_x, round_off(1e-14)) << "node " << node << ", column " << column;
+      EXPECT_NEAR(after(node, column + 1), expected_y, round_off(1e-14)) << "node " << node << ", column " << column;
       if (column == GridFields::force_x) removed_x += before_x - expected_x, removed_y += before_y - expected_y;
     }
   }
   EXPECT_EQ(forces.x.size(), 1u);
   if (forces.x.size() == 1) {
-    EXPECT_NEAR(forces.x[0], removed_x, 1e-12);
-    EXPECT_NEAR(forces.y[0], removed_y, 1e-12);
+    EXPECT_NEAR(forces.x[0], removed_x, round_off(1e-12));
+    EXPECT_NEAR(forces.y[0], removed_y, round_off(1e-12));
   }
   return seen;
 }
@@ -1320,7 +1321,7 @@ TEST(GridConditions, ALeadingEdgeNodeLetsTheGasPartAlongItsFaces) {
   while (k < grid.num_obstacle_nodes() && nodes(k) != leading) ++k;
   ASSERT_LT(k, grid.num_obstacle_nodes());
   ASSERT_EQ(normals(k, ObstacleGrid::placement_column), ObstacleGrid::on_convex_vertex);
-  EXPECT_NEAR(normals(k, ObstacleGrid::face_share_column), 90.0 / 340.0, 1e-12);
+  EXPECT_NEAR(normals(k, ObstacleGrid::face_share_column), 90.0 / 340.0, round_off(1e-12));
   const NodeFieldsView state = slab_state.fields().state;
   const auto values = Kokkos::create_mirror(state);
   Kokkos::deep_copy(values, 0.0);
@@ -1330,8 +1331,8 @@ TEST(GridConditions, ALeadingEdgeNodeLetsTheGasPartAlongItsFaces) {
   slab_state.grid_boundaries().apply_to_momentum_and_force(state, nullptr);
   Kokkos::deep_copy(values, state);
   const double s = std::sin(10 * std::acos(-1.0) / 180);
-  EXPECT_NEAR(values(leading, GridFields::momentum_x), 1 - 2 * 90.0 / 340.0 * s * s, 1e-12);
-  EXPECT_NEAR(values(leading, GridFields::momentum_y), 0, 1e-12);
+  EXPECT_NEAR(values(leading, GridFields::momentum_x), 1 - 2 * 90.0 / 340.0 * s * s, round_off(1e-12));
+  EXPECT_NEAR(values(leading, GridFields::momentum_y), 0, round_off(1e-12));
 }
 
 // A chevron's reflex vertex (the body's angle there above 180 degrees) on a node is on a face
@@ -1356,8 +1357,8 @@ TEST(SignedDistance, OnlyConvexVerticesSplitTheirNodesGas) {
     EXPECT_EQ(std::get<0>(placement_at(x, y)), ObstacleGrid::on_convex_vertex) << x << ", " << y;
   const auto [reflex, nx, ny] = placement_at(1.5, 1);
   EXPECT_EQ(reflex, ObstacleGrid::on_face);
-  EXPECT_NEAR(nx, 1, 1e-12);  // the mean of (1, -1) / sqrt 2 and (1, 1) / sqrt 2
-  EXPECT_NEAR(ny, 0, 1e-12);
+  EXPECT_NEAR(nx, 1, round_off(1e-12));  // the mean of (1, -1) / sqrt 2 and (1, 1) / sqrt 2
+  EXPECT_NEAR(ny, 0, round_off(1e-12));
 }
 
 // A slab cut through an obstacle holds the obstacle's nodes on the far side of the cut as ghost
@@ -1405,20 +1406,20 @@ TEST(GridConditions, ASlabCutThroughAnObstacleCountsTheForceOnTheNodesItOwns) {
   double whole_removed[2];
   const auto whole = force_on_body(make_grid_slab(config.domain, 0, 0, 40), whole_removed);
   EXPECT_EQ(std::get<2>(whole), 0);
-  EXPECT_NEAR(std::get<0>(whole), whole_removed[0], 1e-12);
-  EXPECT_NEAR(std::get<1>(whole), whole_removed[1], 1e-12);
+  EXPECT_NEAR(std::get<0>(whole), whole_removed[0], round_off(1e-12));
+  EXPECT_NEAR(std::get<1>(whole), whole_removed[1], round_off(1e-12));
   for (const std::array<index_t, 3>& cut : {std::array<index_t, 3>{0, 19, 40}, std::array<index_t, 3>{1, 9, 20}}) {
     const int axis = static_cast<int>(cut[0]);
     double removed_low[2], removed_high[2];
     const auto low = force_on_body(make_grid_slab(config.domain, axis, 0, cut[1]), removed_low);
     const auto high = force_on_body(make_grid_slab(config.domain, axis, cut[1], cut[2]), removed_high);
     EXPECT_GT(std::get<2>(low) + std::get<2>(high), 0) << "axis " << axis;  // the cut goes through the body
-    EXPECT_NEAR(std::get<0>(low), removed_low[0], 1e-12) << "axis " << axis;
-    EXPECT_NEAR(std::get<1>(low), removed_low[1], 1e-12) << "axis " << axis;
-    EXPECT_NEAR(std::get<0>(high), removed_high[0], 1e-12) << "axis " << axis;
-    EXPECT_NEAR(std::get<1>(high), removed_high[1], 1e-12) << "axis " << axis;
-    EXPECT_NEAR(std::get<0>(low) + std::get<0>(high), std::get<0>(whole), 1e-12) << "axis " << axis;
-    EXPECT_NEAR(std::get<1>(low) + std::get<1>(high), std::get<1>(whole), 1e-12) << "axis " << axis;
+    EXPECT_NEAR(std::get<0>(low), removed_low[0], round_off(1e-12)) << "axis " << axis;
+    EXPECT_NEAR(std::get<1>(low), removed_low[1], round_off(1e-12)) << "axis " << axis;
+    EXPECT_NEAR(std::get<0>(high), removed_high[0], round_off(1e-12)) << "axis " << axis;
+    EXPECT_NEAR(std::get<1>(high), removed_high[1], round_off(1e-12)) << "axis " << axis;
+    EXPECT_NEAR(std::get<0>(low) + std::get<0>(high), std::get<0>(whole), round_off(1e-12)) << "axis " << axis;
+    EXPECT_NEAR(std::get<1>(low) + std::get<1>(high), std::get<1>(whole), round_off(1e-12)) << "axis " << axis;
   }
 }
 
@@ -1545,8 +1546,8 @@ TEST(ParticleSplitting, AParticleStretchedAlikeAlongBothAxesSplitsInFourQuarters
   for (int j = 0; j < 4; ++j) {
     ASSERT_EQ(index_of.count(first_of_four - j), 1u) << first_of_four - j;
     const index_t k = index_of.at(first_of_four - j);
-    EXPECT_NEAR(after_x(k), quarter_x[j], 1e-15) << j;
-    EXPECT_NEAR(after_y(k), quarter_y[j], 1e-15) << j;
+    EXPECT_NEAR(after_x(k), quarter_x[j], round_off(1e-15)) << j;
+    EXPECT_NEAR(after_y(k), quarter_y[j], round_off(1e-15)) << j;
     EXPECT_DOUBLE_EQ(after_mass(k), m4 / 4);
     EXPECT_DOUBLE_EQ(after_sx(k), 0.5);
     EXPECT_DOUBLE_EQ(after_sy(k), 0.5);
@@ -1555,7 +1556,7 @@ TEST(ParticleSplitting, AParticleStretchedAlikeAlongBothAxesSplitsInFourQuarters
   for (int j = 0; j < 2; ++j) {
     ASSERT_EQ(index_of.count(first_of_two - j), 1u) << first_of_two - j;
     const index_t k = index_of.at(first_of_two - j);
-    EXPECT_NEAR(after_x(k), half_x[j], 1e-15) << j;
+    EXPECT_NEAR(after_x(k), half_x[j], round_off(1e-15)) << j;
     EXPECT_DOUBLE_EQ(after_y(k), y2);
     EXPECT_DOUBLE_EQ(after_mass(k), m2 / 2);
     EXPECT_DOUBLE_EQ(after_sx(k), 0.75);
@@ -1599,8 +1600,8 @@ TEST(ParticleSplitting, ANeedleSplitsIntoHalvesAtMostACellApartFromItsCentre) {
     }
   ASSERT_EQ(offsets.size(), 2u);
   std::sort(offsets.begin(), offsets.end());
-  EXPECT_NEAR(offsets[0], -cell, 1e-15);
-  EXPECT_NEAR(offsets[1], cell, 1e-15);
+  EXPECT_NEAR(offsets[0], -cell, round_off(1e-15));
+  EXPECT_NEAR(offsets[1], cell, round_off(1e-15));
 }
 
 // ---- Memory at a growth ------------------------------------------------------------------------
@@ -1794,7 +1795,7 @@ TEST(WindTunnel, SubsonicFarFieldLetsGasInAndOut) {
   std::printf("[tunnel] subsonic far field: %d particles at t = 0, %d at t = 2; mass %.5f -> %.5f (in %.4f, out "
               "%.4f); mean pressure %.4f, velocity %.4f\n", n, solver.particles().count, initial_mass, mass,
               fluxes.entered.mass, fluxes.left.mass, p, vx);
-  EXPECT_NEAR(mass - initial_mass - fluxes.entered.mass + fluxes.left.mass, 0, 1e-12 * initial_mass);
+  EXPECT_NEAR(mass - initial_mass - fluxes.entered.mass + fluxes.left.mass, 0, round_off(1e-12) * initial_mass);
   // The inflow side alone lets in 1.4 x 0.5 x 2 x 2 = 2.8 over t = 2; the bottom far field adds gas,
   // and its particles fill the tunnel down to the bottom side (the flow would otherwise leave a
   // gap 0.2 high there by t = 2).
@@ -1935,7 +1936,7 @@ TEST(WindTunnel, TheGasOutsideAnOutflowSidePressesWhereTheGasEnds) {
   const auto [lowest, highest] = std::minmax_element(h.p.begin(), h.p.end());
   std::printf("[tunnel] channel at rest, gas outside its outflow side at 1.5: pressures %.3f to %.3f at t = 0.1\n",
               *lowest, *highest);
-  EXPECT_NEAR(mass, initial_mass, 1e-12 * initial_mass);  // nothing left
+  EXPECT_NEAR(mass, initial_mass, round_off(1e-12) * initial_mass);  // nothing left
   EXPECT_GT(*lowest, 0.8);
   EXPECT_LT(*highest, 1.8);
   EXPECT_GT(*highest, 1.3);  // the compression came in
@@ -2129,7 +2130,7 @@ TEST(WindTunnel, CoarseCylinderInvariantsAndBowShock) {
   }
   // Bow shock: on the symmetry line, the pressure rises past the normal-shock midpoint (5.67)
   // between the inflow and the nose (x = 0.35); upstream of x = 0.1 it is still the free stream.
-  EXPECT_LT(worst_balance, 1e-12);
+  EXPECT_LT(worst_balance, round_off(1e-12));
   EXPECT_GT(solver.open_sides().fluxes().left.mass, 0.5 * initial_mass);  // the gas has been through the tunnel
   const HostParticles h = to_host(solver);
   const index_t n = solver.particles().count;
@@ -2310,7 +2311,7 @@ TEST(WindTunnel, PressureRelaxationAndVolumeCorrectionQuietAFreeStreamAndKeepThe
   EXPECT_GT(plain.density_scatter, 2 * quiet.density_scatter);
   EXPECT_NEAR(sorted.density_scatter, quiet.density_scatter, 0.01);
   for (double residual : {plain.energy_residual, quiet.energy_residual, sorted.energy_residual, averaged.energy_residual})
-    EXPECT_LT(std::fabs(residual), 1e-11);
+    EXPECT_LT(std::fabs(residual), round_off(1e-11));
 }
 
 }  // namespace
