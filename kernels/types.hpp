@@ -83,8 +83,8 @@ inline IndexView to_device_indices(const char* label, const std::vector<index_t>
 // kernels/particle_compaction.hpp) is made again with where it must hold `needed` entries and has
 // room for `have`: a quarter to spare, at least twice what it had, and at least kept_list_minimum
 // entries. (Grown by a quarter alone, the lists of splitting and merging, whose counts rise a
-// little every step as a wake forms, were made again 107 times in the Mach 3 cylinder's first 300
-// steps: on a GPU each an allocation and a free that may wait for the device. Doubling makes the
+// little every step as a wake forms, were made again 107 times in the linear Mach 3 cylinder's first
+// 300 steps: on a GPU each an allocation and a free that may wait for the device. Doubling makes the
 // growths logarithmic in the counts' range, and the floor skips the small sizes: 4 or 8 KiB a list.)
 inline constexpr size_t kept_list_minimum = 1024;
 inline size_t grown_capacity(size_t needed, size_t have) {

@@ -129,10 +129,11 @@ void update_cell_map(const GridGeometry& geometry, const ParticleState& particle
 // Algorithm 1, step 12: the particle arrays grouped by cell, in index order within a cell (the
 // same order on any thread count), so that particles close in space are close in memory. The
 // fields' Views may be replaced (on CPUs they are, as capacity growth replaces them): hold none
-// across it. `order` is kept by the caller from reordering to reordering: its arrays (about 6 B a
-// particle, 4.5 of them its list of the particles) are made again only where the particles outgrow
-// them. (Made for each reordering, they were three or four allocations every reordering: on a GPU
-// each a cudaMalloc, and a free that may wait for the device.)
+// across it. `order` is kept by the caller from reordering to reordering: its arrays (its list of
+// the particles, 4.5 B a particle with its spare; 4 B a cell, and 4 more for each thread up to 32
+// on CPUs, 4 more on GPUs) are made again only where the particles outgrow them or the cells
+// change. (Made for each reordering, they were three or four allocations every reordering: on a
+// GPU each a cudaMalloc, and a free that may wait for the device.)
 void reorder_particles_by_cell(ParticleState& particles, index_t num_cells, CellOrder& order);
 
 // The number of particles with an invalid gas state (is_valid_gas_state: a NaN or non-positive
