@@ -60,11 +60,16 @@ struct SignedDistance {
   real_t face_normal_x[2] = {0, 0}, face_normal_y[2] = {0, 0};
 };
 
-// The round-off of a distance computed from coordinates and lengths of about `scale`: a few
-// thousand units of their last place. A point within it of a surface is on the surface: a node on
-// a face along a grid line is then an obstacle node on the surface (ObstacleGrid), every node of
-// the face alike, rather than inside or out as the last bits fall.
-KOKKOS_INLINE_FUNCTION real_t distance_round_off(real_t scale) { return 1024 * real_epsilon * scale; }
+// The round-off of a distance computed from coordinates and lengths of about `scale`: 64 units of
+// their last place, some ten times what a node's coordinate (origin + spacing i) and the distance's
+// few operations leave. A point within it of a surface is on the surface: a node on a face along a
+// grid line is then an obstacle node on the surface (ObstacleGrid), every node of the face alike,
+// rather than inside or out as the last bits fall. The band must stay far below any length the
+// flow resolves: a particle in it is on the surface, and the particle rules put back only those
+// deeper (ParticleBoundaries). With 1024 units (until 2026-12-07), single precision's band was
+// 1.2e-4 of the coordinates, up to 2e-4 round the Mach 3 cylinder (half a per cent of a cell at
+// 100 x 50 cells), and particles that had entered the body stayed there, 1e-4 to 2e-4 deep.
+KOKKOS_INLINE_FUNCTION real_t distance_round_off(real_t scale) { return 64 * real_epsilon * scale; }
 KOKKOS_INLINE_FUNCTION real_t snapped_to_surface(real_t distance, real_t scale) {
   return absolute_value(distance) <= distance_round_off(scale) ? real_t(0) : distance;
 }
