@@ -54,7 +54,7 @@ inline real_t merge_cost(const MergeCandidate& a, const MergeCandidate& b) {
 }
 
 // How close two merge costs must be to count as equal: what round-off reaches in mirror images.
-inline constexpr real_t merge_tie_tolerance = real_t(1e-9);
+inline constexpr real_t merge_tie_tolerance = mirror_tie_tolerance;
 
 // The pairs of `candidates` (any order): per cell the cheapest pair (merge_cost) first, and so on;
 // the particle with the smaller id of each pair in `keep`, the other in `gone`.

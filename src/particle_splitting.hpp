@@ -34,7 +34,7 @@ namespace mpmflow {
 // How close a particle's two stretches must be to split it in four: a relative difference that
 // round-off reaches (a node's sums add a cell's particles in an order that mirror images do not
 // share) and that physics does not care about.
-inline constexpr real_t split_tie_tolerance = real_t(1e-9);
+inline constexpr real_t split_tie_tolerance = mirror_tie_tolerance;
 
 // The axes split_axis names besides x (0) and y (1): both, in four quarters.
 inline constexpr int split_both_axes = 2;

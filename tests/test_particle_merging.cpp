@@ -208,8 +208,10 @@ TEST(ParticleMerging, PairsTheCheapestFirstAndKeepsTheSmallerId) {
 // pair merges, onto the line.
 TEST(ParticleMerging, APairingOfMirrorImagesIsItsOwnMirrorImage) {
   // The diagonal x = y of a cell: c on it, a and b mirror images 0.1 from c, d on it 0.3 from c.
-  // Round-off left the mirror images a part in 1e13 off (as mirror-image particles of a run are).
-  const real_t off = 1e-13, d = 0.1 / std::sqrt(2.0);
+  // Round-off left the mirror images a part in 1e13 off (as mirror-image particles of a run are), in
+  // single precision 8 epsilons (9.5e-7, some 16 units of their coordinates' last place: with a
+  // tie tolerance of 1e-9 there, below float's epsilon, c paired with a).
+  const real_t off = real_t(std::max(1e-13, 8.0 * real_epsilon)), d = real_t(0.1 / std::sqrt(2.0));
   const std::vector<MergeCandidate> candidates = {{0, -5, 0, 0.5, 0.5, 1.0},
                                                   {0, -6, 1, 0.5 + d + off, 0.5 - d, 1.0},
                                                   {0, -3, 2, 0.5 - d, 0.5 + d, 1.0},
@@ -244,14 +246,14 @@ TEST(ParticleMerging, AMergedParticleIsNeverPutInsideAnObstacle) {
   Totals totals;
   const auto merged = by_id(pt, totals);
   ASSERT_EQ(merged.count(-8), 1u);
-  EXPECT_DOUBLE_EQ(merged.at(-8)[2], 1.15);
-  EXPECT_DOUBLE_EQ(merged.at(-8)[3], 1.9);
-  EXPECT_DOUBLE_EQ(totals.mass, 0.02);
+  EXPECT_DOUBLE_EQ(merged.at(-8)[2], real_t(1.15));
+  EXPECT_DOUBLE_EQ(merged.at(-8)[3], real_t(1.9));
+  EXPECT_NEAR(totals.mass, 0.02, round_off(1e-16));
   // Without the obstacle the pair merges at its centre of mass.
   ParticleState free = to_particles(slab.geometry, pair);
   ParticleMerging(config, slab.geometry).merge(free);
   const auto centre = by_id(free, totals);
-  EXPECT_DOUBLE_EQ(centre.at(-8)[2], 1.525);
+  EXPECT_DOUBLE_EQ(centre.at(-8)[2], real_t(1.525));
 }
 
 // The pairing's definition, written plainly (pair_candidates orders the pairs a slice at a time and

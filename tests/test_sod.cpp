@@ -181,8 +181,9 @@ TEST(Sod, ReorderingByCellDoesNotChangeTheSolution) {
     ASSERT_EQ(a[k][0], b[k][0]);
     largest_difference = std::max({largest_difference, std::fabs(a[k][1] - b[k][1]), std::fabs(a[k][2] - b[k][2])});
   }
-  // Only the order of floating-point sums on the grid changes.
-  EXPECT_LT(largest_difference, 1e-9);
+  // Only the order of floating-point sums on the grid changes (seen: 1.6e-14; 3.5e-6 in single
+  // precision).
+  EXPECT_LT(largest_difference, per_precision(1e-9, 1e-4));
   std::printf("[sod] reordering every step from reversed order: largest particle density/position difference %.2e\n",
               largest_difference);
 }
