@@ -7,6 +7,7 @@
 # Usage: full_disk.sh MPMFLOW_BINARY SOURCE_DIR WORK_DIR [MPIEXEC]
 set -euo pipefail
 binary=$1 source_dir=$2 work_dir=$3 mpiexec=${4:-}
+source "$(dirname "${BASH_SOURCE[0]}")/round_off.sh"
 rm -rf "$work_dir"
 mkdir -p "$work_dir/disk"
 if ! mount -t tmpfs -o size=4m tmpfs "$work_dir/disk" 2>/dev/null; then
@@ -18,8 +19,11 @@ export OMP_PROC_BIND=false
 base_args=("$source_dir/cases/cylinder_mach3.json" --progress-interval 1000 --set domain/cells_x=60 --set domain/cells_y=30
   --set 'particles/per_cell=[2,2]' --set time/end=0.3 --set output/checkpoint_interval=5)
 # The disk fills while a snapshot is written (10 snapshots, 4 MB), and while a checkpoint is (no
-# snapshots, 1.5 MB: a checkpoint is 0.63 MB, so the third does not fit beside the two kept).
-for spec in "10 4m" "0 1536k"; do
+# snapshots, 1.5 MB: a checkpoint is 0.63 MB, so the third does not fit beside the two kept). A
+# single-precision build's files are about half as large, and so are its disks.
+snapshots_disk=$(per_precision "$binary" 4m 2400k)
+checkpoints_disk=$(per_precision "$binary" 1536k 768k)
+for spec in "10 $snapshots_disk" "0 $checkpoints_disk"; do
   read -r snapshots size <<< "$spec"
   echo "== $snapshots snapshots and a checkpoint every 5 steps, into $size"
   rm -rf "$work_dir/disk/out" "$work_dir/restarted"
@@ -57,9 +61,9 @@ PY
   echo "restart from $(basename "$newest") ran to the end"
 done
 if [ -n "$mpiexec" ]; then
-  echo "== 2 ranks, 10 snapshots and a checkpoint every 5 steps, into 4m"
+  echo "== 2 ranks, 10 snapshots and a checkpoint every 5 steps, into $snapshots_disk"
   rm -rf "$work_dir/disk/out"
-  mount -o remount,size=4m "$work_dir/disk"
+  mount -o remount,size=$snapshots_disk "$work_dir/disk"
   status=0
   OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 timeout 120 "$mpiexec" -n 2 --oversubscribe "$binary" run \
     "${base_args[@]}" --set output/snapshots=10 --output "$work_dir/disk/out" > "$work_dir/ranks2.log" 2>&1 || status=$?

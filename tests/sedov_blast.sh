@@ -12,20 +12,23 @@
 # Usage: sedov_blast.sh MPMFLOW_BINARY SOURCE_DIR WORK_DIR
 set -euo pipefail
 binary=$1 source_dir=$2 work_dir=$3
+source "$(dirname "${BASH_SOURCE[0]}")/round_off.sh"
+# The energy balance's bound on round-off (seen in single precision: 8.7e-9, 4.9e-8, 7.0e-9).
+balance_bound=$(per_precision "$binary" 1e-10 1e-6)
 rm -rf "$work_dir"
 mkdir -p "$work_dir"
 check=(/usr/bin/python3 "$source_dir/tools/sedov_check.py")
 "$binary" run "$source_dir/cases/sedov.json" --output "$work_dir/consistent" --progress-interval 100000 > "$work_dir/consistent.log"
-"${check[@]}" "$work_dir/consistent" --max-energy-change 0.01 --max-balance-residual 1e-10 --max-anisotropy 0.02
+"${check[@]}" "$work_dir/consistent" --max-energy-change 0.01 --max-balance-residual "$balance_bound" --max-anisotropy 0.02
 "$binary" run "$source_dir/cases/sedov.json" --set domain/cells_x=120 --set domain/cells_y=120 \
   --output "$work_dir/consistent_120" --progress-interval 100000 > "$work_dir/consistent_120.log"
-"${check[@]}" "$work_dir/consistent_120" --max-energy-change 0.01 --max-balance-residual 1e-10 \
+"${check[@]}" "$work_dir/consistent_120" --max-energy-change 0.01 --max-balance-residual "$balance_bound" \
   --max-radius-error 0.02 --max-anisotropy 0.02
 "$binary" run "$source_dir/cases/sedov.json" --set 'domain/x=[-1.2,1.2]' --set 'domain/y=[-1.2,1.2]' \
   --set domain/cells_x=120 --set domain/cells_y=120 --set 'initial_state/regions/0/x=[-0.04,0.04]' \
   --set 'initial_state/regions/0/y=[-0.04,0.04]' --output "$work_dir/whole_plane" --progress-interval 100000 \
   > "$work_dir/whole_plane.log"
-"${check[@]}" "$work_dir/whole_plane" --max-energy-change 0.01 --max-balance-residual 1e-10 \
+"${check[@]}" "$work_dir/whole_plane" --max-energy-change 0.01 --max-balance-residual "$balance_bound" \
   --max-radius-error 0.04 --max-anisotropy 0.02
 "$binary" run "$source_dir/cases/sedov.json" --set numerics/energy_consistent=false --output "$work_dir/paper" \
   --progress-interval 100000 > "$work_dir/paper.log"

@@ -4,10 +4,12 @@
 # OpenMP threads and on a repeated run, and on the CPUs' code paths the same diagnostics.csv too
 # (its totals summed in fixed chunks; the GPU paths' Kokkos reductions sum per thread). The fused G2P + remap P2G kernel does the same arithmetic
 # in the same order as the two generic kernels; only FMA contraction, which the compiler may do
-# differently in the two, separates them: 1e-14 at the first output (t = 0.25), compared to 1e-12.
+# differently in the two, separates them: 1e-14 at the first output (t = 0.25), compared to 1e-12
+# (in single precision 9.3e-6, compared to 1e-4).
 # (Later the round-off grows some 100-fold per quarter time unit in the wake, 1e-3 by t = 1.) Run by ctest: sorted_p2g_bitwise.sh MPMFLOW SOURCE_DIR WORK_DIR
 set -euo pipefail
 mpmflow=$1 source_dir=$2 work=$3
+source "$(dirname "${BASH_SOURCE[0]}")/round_off.sh"
 compare="/usr/bin/python3 $source_dir/tools/compare_outputs.py"
 export OMP_PROC_BIND=false
 rm -rf "$work"
@@ -37,5 +39,5 @@ $compare "$work/cylinder_2" "$work/cylinder_2_again" --all --exact | tail -1
 same_diagnostics "$work/cylinder_1" "$work/cylinder_2"
 run 2 "$work/cylinder_2_unfused" "${cylinder[@]}" --set numerics/fused_kernels=false
 grep -q "kernels unfused" "$work/cylinder_2_unfused.log" || { echo "FAILED: not the unfused kernels"; exit 1; }
-$compare "$work/cylinder_2" "$work/cylinder_2_unfused" --step 1 --tolerance 1e-12 | tail -1
+$compare "$work/cylinder_2" "$work/cylinder_2_unfused" --step 1 --tolerance "$(per_precision "$mpmflow" 1e-12 1e-4)" | tail -1
 echo "PASSED"
