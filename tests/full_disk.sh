@@ -20,7 +20,7 @@ base_args=("$source_dir/cases/cylinder_mach3.json" --progress-interval 1000 --se
   --set 'particles/per_cell=[2,2]' --set time/end=0.3 --set output/checkpoint_interval=5)
 # The disk fills while a snapshot is written (10 snapshots, 4 MB), and while a checkpoint is (no
 # snapshots, 1.5 MB: a checkpoint is 0.63 MB, so the third does not fit beside the two kept). A
-# single-precision build's files are about half as large, and so are its disks.
+# single-precision build's files are 0.56-0.59 as large, and so are its disks.
 snapshots_disk=$(per_precision "$binary" 4m 2400k)
 checkpoints_disk=$(per_precision "$binary" 1536k 768k)
 for spec in "10 $snapshots_disk" "0 $checkpoints_disk"; do

@@ -1,6 +1,6 @@
 #pragma once
 // Tolerances on round-off for the build's reals (real_t, kernels/types.hpp: double, or float with
-// MPMFLOW_1).
+// MPMFLOW_SINGLE_PRECISION).
 #include <limits>
 
 #include "kernels/types.hpp"
