@@ -6,7 +6,7 @@
 # 2026-12-06; before particles stretched alike along both axes split in four, 2.6e-3 and 0.27).
 # Round-off differences then grow in both flows' unstable parts (the quadrants' jet along the
 # diagonal, the blast's hot interior): the runs stop before. Random placement must fail the bound:
-# the check can fail. A single-precision build's round-off starts at 1e-7 and grows alike (seen:
+# the check can fail. A single-precision build's round-off starts at 2.4e-7 and grows alike (seen:
 # the quadrants 5.8e-6, 4.5e-5, 2.9e-3 at t = 0.1, 0.2, 0.3; the blast 5.4e-5 at t = 0.25 and 0.21
 # at t = 0.5): its runs stop at t = 0.2 and 0.25, bounded by 1e-3.
 # Usage: mirror_symmetry.sh MPMFLOW_BINARY SOURCE_DIR WORK_DIR
