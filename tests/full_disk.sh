@@ -8,6 +8,7 @@
 set -euo pipefail
 binary=$1 source_dir=$2 work_dir=$3 mpiexec=${4:-}
 source "$(dirname "${BASH_SOURCE[0]}")/round_off.sh"
+reals=$(reals_of "$binary")
 rm -rf "$work_dir"
 mkdir -p "$work_dir/disk"
 if ! mount -t tmpfs -o size=4m tmpfs "$work_dir/disk" 2>/dev/null; then
@@ -21,8 +22,8 @@ base_args=("$source_dir/cases/cylinder_mach3.json" --progress-interval 1000 --se
 # The disk fills while a snapshot is written (10 snapshots, 4 MB), and while a checkpoint is (no
 # snapshots, 1.5 MB: a checkpoint is 0.63 MB, so the third does not fit beside the two kept). A
 # single-precision build's files are 0.56-0.59 as large, and so are its disks.
-snapshots_disk=$(per_precision "$binary" 4m 2400k)
-checkpoints_disk=$(per_precision "$binary" 1536k 768k)
+snapshots_disk=$(per_precision "$reals" 4m 2400k)
+checkpoints_disk=$(per_precision "$reals" 1536k 768k)
 for spec in "10 $snapshots_disk" "0 $checkpoints_disk"; do
   read -r snapshots size <<< "$spec"
   echo "== $snapshots snapshots and a checkpoint every 5 steps, into $size"

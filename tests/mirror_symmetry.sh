@@ -13,10 +13,11 @@
 set -euo pipefail
 binary=$1 source_dir=$2 work_dir=$3
 source "$(dirname "${BASH_SOURCE[0]}")/round_off.sh"
-asymmetry_bound=$(per_precision "$binary" 1e-9 1e-3)
+reals=$(reals_of "$binary")
+asymmetry_bound=$(per_precision "$reals" 1e-9 1e-3)
 # The runs' ends and outputs (every 0.1 and every 0.25).
-quadrants_end=$(per_precision "$binary" 0.3 0.2) quadrants_outputs=$(per_precision "$binary" 3 2)
-sedov_end=$(per_precision "$binary" 0.5 0.25) sedov_outputs=$(per_precision "$binary" 2 1)
+quadrants_end=$(per_precision "$reals" 0.3 0.2) quadrants_outputs=$(per_precision "$reals" 3 2)
+sedov_end=$(per_precision "$reals" 0.5 0.25) sedov_outputs=$(per_precision "$reals" 2 1)
 rm -rf "$work_dir"
 mkdir -p "$work_dir"
 check=(/usr/bin/python3 "$source_dir/tools/mpmflow_plot.py" symmetry)

@@ -93,7 +93,8 @@ TEST(SubCellConsistency, RelaxedVolumeSharesKeepTheCellsVolumeAndFollowTheIsentr
 }
 
 TEST(SubCellConsistency, VolumeCorrectionCompressesOverfilledAndExpandsUnderfilledSpace) {
-  const real_t rho = 1.4, rate = 0.1, p = 1.0;  // (real_t: unchanged is the density as the build holds it)  // a particle at its nodes' mean pressure
+  // A particle at its nodes' mean pressure (real_t: unchanged is the density as the build holds it).
+  const real_t rho = 1.4, rate = 0.1, p = 1.0;
   EXPECT_DOUBLE_EQ(volume_corrected_density(rho, 1.0, rate, p, p), rho);
   EXPECT_NEAR(volume_corrected_density(rho, 1.1, rate, p, p), rho * 1.01, round_off(1e-12));  // over-filled: denser
   EXPECT_NEAR(volume_corrected_density(rho, 0.9, rate, p, p), rho * 0.99, round_off(1e-12));  // part empty: lighter
